@@ -1,0 +1,209 @@
+r"""The small-displacement equilibrium as a reduced, scaled cone programme.
+
+Problem (METHOD.md section 1, [Y]): minimise the potential :math:`g^T x` over the small
+displacements x that close every loop (:math:`E x = 0`: rigid components of loop joints and contact
+points with zero clearance) and keep every contact point in its clearance set
+(:math:`\|S_j x\| \le c_j` or :math:`|s_j^T x| \le c_j`).
+
+Reduction, in the scaled unknowns :math:`z = Z^{-1} x` (Z: clearance-sized scales):
+
+1. :math:`N_E` spans the null space of :math:`E Z` (closure eliminated exactly; redundant
+   closure equations of planar mechanisms cost nothing);
+2. :math:`K` spans the motions that no contact sees (:math:`S_j Z N_E k = 0` for all j): free
+   motions such as the spin of a shaft. A load with a component along K has no equilibrium
+   (the potential is unbounded below); a load orthogonal to K leaves K indeterminate, and we
+   return the minimum-norm optimum by restricting to the complement of K;
+3. :math:`x = Z Q y` with :math:`Q = N_E K^\perp` orthonormal, and each contact becomes
+   :math:`\|P_j y\| \le 1` with :math:`P_j = S_j Z Q / c_j`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import UnboundedLoadError
+from ..model.clearance import COMPONENT_MEANING, COMPONENT_NAMES, ContactPoint
+from .small_displacement import SmallDisplacementMaps, null_space
+
+UNBOUNDED_FRACTION = 1e-9
+
+
+@dataclass(frozen=True)
+class ContactConstraint:
+    """One contact point of one joint, as rows on the unknowns x.
+
+    Attributes:
+        joint: joint name.
+        contact: the contact point (its name, shape and bound).
+        rows: map x -> bounded displacement components [m], shape (k, n).
+    """
+
+    joint: str
+    contact: ContactPoint
+    rows: np.ndarray
+
+    @property
+    def label(self) -> str:
+        """``joint:contact`` identifier used in results and reports."""
+        return f"{self.joint}:{self.contact.name}"
+
+
+@dataclass(frozen=True)
+class ReducedProblem:
+    """Scaled, reduced cone programme :math:`\\min f^T y` s.t. :math:`\\|P_j y\\| \\le 1`.
+
+    Attributes:
+        gradient: g, the potential's gradient in x [J per unit], (n,).
+        scale: Z as a vector, (n,).
+        basis: Q, (n, r); x = scale * (Q @ y).
+        contacts: contact points with positive clearance.
+        equalities: E, (m, n).
+        free_motions: x-space basis of the motions no contact sees, (n, f).
+        free_descriptions: one sentence per column of ``free_motions``.
+        objective: f = Q^T Z g / sigma, (r,).
+        objective_scale: sigma [J], so that the potential is sigma * f^T y.
+        contact_matrices: P_j, one (k_j, r) array per contact.
+    """
+
+    gradient: np.ndarray
+    scale: np.ndarray
+    basis: np.ndarray
+    contacts: tuple[ContactConstraint, ...]
+    equalities: np.ndarray
+    free_motions: np.ndarray
+    free_descriptions: tuple[str, ...]
+    objective: np.ndarray
+    objective_scale: float
+    contact_matrices: tuple[np.ndarray, ...]
+
+    @property
+    def size(self) -> int:
+        """Number of reduced unknowns r."""
+        return self.basis.shape[1]
+
+    def x_from_y(self, y: np.ndarray) -> np.ndarray:
+        """Unknowns x (joint torsor coordinates, SI) from reduced ones y."""
+        return self.scale * (self.basis @ y)
+
+    def y_from_x(self, x: np.ndarray) -> np.ndarray:
+        """Least-squares inverse of :meth:`x_from_y` (exact for x in the reduced space)."""
+        return self.basis.T @ (x / self.scale)
+
+    def signature(self) -> tuple:
+        """What a built solver depends on: sizes and shapes, not numbers."""
+        return (self.size, tuple((c.contact.shape, c.rows.shape[0]) for c in self.contacts))
+
+
+def reduce(
+    maps: SmallDisplacementMaps,
+    joints: dict,
+    gradient: np.ndarray,
+    length_scale: float,
+) -> ReducedProblem:
+    """Assemble and reduce the small-displacement problem.
+
+    Args:
+        maps: linear maps at the nominal configuration.
+        joints: joint name -> TreeJoint or LoopJoint (tree joints first, in tree order).
+        gradient: g, (n,).
+        length_scale: characteristic length of the mechanism L_ref [m], for rotation scales.
+
+    Raises:
+        UnboundedLoadError: the load works along a motion that nothing blocks.
+    """
+    n = maps.size
+    contacts, equality_rows = _constraints(maps, joints)
+    scale = _variable_scales(maps, joints, contacts, length_scale)
+    equalities = np.array(equality_rows).reshape(-1, n)
+
+    closure_basis = null_space(equalities * scale) if equalities.size else np.eye(n)
+    if contacts:
+        contact_rows = np.vstack([c.rows for c in contacts]) * scale
+        seen = contact_rows @ closure_basis
+        free_w = null_space(seen)
+    else:
+        free_w = np.eye(closure_basis.shape[1])
+    free_z = closure_basis @ free_w
+    scaled_gradient = scale * gradient
+    reference = float(np.linalg.norm(scaled_gradient))
+    along_free = free_z.T @ scaled_gradient
+    if reference > 0.0 and np.linalg.norm(along_free) > UNBOUNDED_FRACTION * reference:
+        motion = scale * (free_z @ along_free)
+        raise UnboundedLoadError(
+            describe_motion(maps, joints, motion, length_scale),
+            float(np.linalg.norm(along_free) / reference),
+        )
+    bounded_w = _complement(free_w, closure_basis.shape[1])
+    basis = closure_basis @ bounded_w
+    reduced_gradient = basis.T @ scaled_gradient
+    sigma = float(np.linalg.norm(reduced_gradient))
+    objective = reduced_gradient / sigma if sigma > 0.0 else reduced_gradient
+    matrices = tuple((c.rows * scale) @ basis / c.contact.bound for c in contacts)
+    free_x = scale[:, None] * free_z
+    descriptions = tuple(
+        "; ".join(describe_motion(maps, joints, free_x[:, i], length_scale))
+        for i in range(free_x.shape[1])
+    )
+    return ReducedProblem(
+        gradient, scale, basis, tuple(contacts), equalities, free_x, descriptions,
+        objective, sigma, matrices,
+    )
+
+
+def _constraints(maps: SmallDisplacementMaps, joints: dict):
+    contacts: list[ContactConstraint] = []
+    equality_rows: list[np.ndarray] = []
+    for name, joint in joints.items():
+        torsor = maps.joint_torsor[name]
+        is_loop = not hasattr(joint, "joint_id")
+        if is_loop:
+            for component in joint.clearance.rigid_components:
+                equality_rows.append(torsor[component])
+        for contact in joint.clearance.contacts:
+            rows = contact.linear_rows() @ torsor
+            if contact.bound > 0.0:
+                contacts.append(ContactConstraint(name, contact, rows))
+            elif is_loop:
+                equality_rows.extend(rows)
+    return contacts, equality_rows
+
+
+def _variable_scales(maps, joints, contacts, length_scale: float) -> np.ndarray:
+    bounds = [c.contact.bound for c in contacts]
+    reference = float(np.median(bounds)) if bounds else 1.0
+    scale = np.empty(maps.size)
+    for i, (name, basis) in enumerate(zip(maps.variable_joint, maps.variable_basis)):
+        own = joints[name].clearance.max_play or reference
+        translational = np.linalg.norm(basis[:3]) >= np.linalg.norm(basis[3:])
+        scale[i] = own if translational else reference / length_scale
+    return scale
+
+
+def _complement(basis: np.ndarray, dimension: int) -> np.ndarray:
+    """Orthonormal basis of the orthogonal complement of ``basis`` (d, f) in R^d."""
+    if basis.shape[1] == 0:
+        return np.eye(dimension)
+    return null_space(basis.T)
+
+
+def describe_motion(maps: SmallDisplacementMaps, joints: dict, motion: np.ndarray,
+                    length_scale: float) -> list[str]:
+    """Name the joint components that a motion x moves, largest first.
+
+    Rotations are weighted by the length scale so that translations and rotations compare.
+    """
+    entries = []
+    for name in joints:
+        torsor = maps.joint_torsor[name] @ motion
+        weighted = np.concatenate([torsor[:3], torsor[3:] * length_scale])
+        for component, value in enumerate(weighted):
+            entries.append((abs(value), name, component))
+    largest = max((e[0] for e in entries), default=0.0)
+    if largest == 0.0:
+        return ["no joint moves"]
+    picked = sorted((e for e in entries if e[0] > 0.2 * largest), reverse=True)
+    return [
+        f"joint {name!r} {COMPONENT_NAMES[c]} ({COMPONENT_MEANING[c]})" for _, name, c in picked
+    ]

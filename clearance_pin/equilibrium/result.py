@@ -1,0 +1,189 @@
+"""The answer of a solve: an :class:`Equilibrium` that carries its own status and residuals.
+
+Conventions: SI units; a joint torsor is (u, v, w, alpha, beta, gamma) [m, rad] of the child part
+relative to the parent at the joint centre, in the joint's clearance frame (x = joint axis).
+A contact force [N] is the force the parent part exerts on the child at a contact point, in the
+clearance frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ClearancePinError
+
+STATICS_TOLERANCE = 1e-8
+FEASIBILITY_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One contact point of one joint at the equilibrium.
+
+    Attributes:
+        joint: joint name.
+        point: contact point name within the joint (``ball``, ``end-``, ``end+``, ``axial``, ...).
+        gap: remaining play at that point [m] (0 in contact, > 0 free).
+        clearance: the clearance that bounds the point [m].
+        force: force of the parent on the child at that point [N], clearance frame, (3,).
+        active: the point touches (gap within tolerance of zero and a force may act).
+    """
+
+    joint: str
+    point: str
+    gap: float
+    clearance: float
+    force: np.ndarray
+    active: bool
+
+    @property
+    def label(self) -> str:
+        """``joint:point``."""
+        return f"{self.joint}:{self.point}"
+
+    @property
+    def force_magnitude(self) -> float:
+        """|force| [N]."""
+        return float(np.linalg.norm(self.force))
+
+
+@dataclass
+class Equilibrium:
+    """Quasi-static equilibrium of a mechanism in its joint clearances.
+
+    Attributes:
+        formulation: ``"linear"`` (small displacements, [Y]) or ``"exact"`` (finite rigid motions).
+        torsors: joint name -> torsor (6,) [m, rad], clearance frame at the joint centre.
+        body_motions: body (Pinocchio joint) name -> (translation of its frame origin [m],
+            rotation vector [rad]), world axes.
+        contacts: every contact point with its gap and force (active ones carry the load).
+        energy: potential of the loads at the equilibrium [J].
+        status: ``"optimal"``, or ``"indeterminate"`` (no load on any admissible motion).
+        solver_status: the optimiser's own status text.
+        iterations: optimiser iterations.
+        residuals: measured residuals (dimensionless unless named ``_m``): stationarity,
+            feasibility, complementarity, dual_infeasibility, statics, and ``max_violation_m`` [m].
+        free_motions: motions that no contact sees, left at zero (minimum-norm optimum).
+        build_time, solve_time: [s]; build_time is 0 when a built problem was re-used.
+        polished: the active-set Newton polish was accepted.
+        difference: when both formulations ran, max |exact - linear| over the torsor components,
+            ``{"translation_m": float, "rotation_rad": float}``.
+        linear: the small-displacement equilibrium that seeded an exact solve, if any.
+    """
+
+    formulation: str
+    torsors: dict[str, np.ndarray]
+    body_motions: dict[str, tuple[np.ndarray, np.ndarray]]
+    contacts: tuple[Contact, ...]
+    energy: float
+    status: str
+    solver_status: str
+    iterations: int
+    residuals: dict[str, float]
+    free_motions: tuple[str, ...]
+    build_time: float
+    solve_time: float
+    polished: bool = False
+    difference: dict[str, float] | None = None
+    linear: Equilibrium | None = None
+    _frame_motion: object = field(default=None, repr=False)
+    _checker: object = field(default=None, repr=False)
+
+    @property
+    def ok(self) -> bool:
+        """Residuals within tolerance: feasible, stationary and balanced."""
+        r = self.residuals
+        return (
+            r.get("max_violation_m", 0.0) <= FEASIBILITY_TOLERANCE * max(1.0, r.get("clearance_m", 1.0))
+            and r.get("statics", 0.0) <= STATICS_TOLERANCE
+            and r.get("dual_infeasibility", 0.0) <= 1e-8
+        )
+
+    def torsor(self, joint: str) -> np.ndarray:
+        """Torsor (u, v, w, alpha, beta, gamma) [m, rad] of ``joint`` in its clearance frame."""
+        if joint not in self.torsors:
+            raise ClearancePinError(
+                f"unknown joint {joint!r}; the joints are: {', '.join(self.torsors)}"
+            )
+        return self.torsors[joint].copy()
+
+    def frame_displacement(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
+        """Displacement of a Pinocchio frame: (translation of its origin [m], rotation [rad]), world."""
+        return self._frame_motion(frame)
+
+    @property
+    def active_contacts(self) -> tuple[Contact, ...]:
+        """The contacts that carry load."""
+        return tuple(c for c in self.contacts if c.active)
+
+    def check(self, **options):
+        """Measure the solved pose with coal (see :mod:`clearance_pin.check`)."""
+        if self._checker is None:
+            raise ClearancePinError("this equilibrium has no geometry to check")
+        return self._checker(self, **options)
+
+    def to_dict(self, length: float = 1.0, unit: str = "m") -> dict:
+        """JSON-ready dict; lengths multiplied by ``length`` (1e3 for mm), angles in rad."""
+        return {
+            "formulation": self.formulation,
+            "status": self.status,
+            "ok": self.ok,
+            "length_unit": unit,
+            "torsors": {
+                name: _scaled_torsor(t, length).tolist() for name, t in self.torsors.items()
+            },
+            "contacts": [
+                {"joint": c.joint, "point": c.point, "active": c.active,
+                 "gap": c.gap * length, "force_N": c.force.tolist()}
+                for c in self.contacts
+            ],
+            "energy_J": self.energy,
+            "free_motions": list(self.free_motions),
+            "solver_status": self.solver_status,
+            "iterations": self.iterations,
+            "residuals": dict(self.residuals),
+            "polished": self.polished,
+            "build_time_s": self.build_time,
+            "solve_time_s": self.solve_time,
+            "difference_exact_linear": self.difference,
+        }
+
+    def table(self, length: float = 1e6, unit: str = "um") -> str:
+        """A readable report: torsors, contacts and forces, residuals."""
+        lines = [f"equilibrium ({self.formulation}): {self.status}, ok={self.ok}, "
+                 f"energy {self.energy:.6g} J"]
+        lines.append(f"{'joint':<14}{'u':>11}{'v':>11}{'w':>11}   [{unit}]"
+                     f"{'alpha':>12}{'beta':>12}{'gamma':>12}   [urad]")
+        for name, t in self.torsors.items():
+            lin = "".join(f"{value * length:>11.4f}" for value in t[:3])
+            ang = "".join(f"{value * 1e6:>12.4f}" for value in t[3:])
+            lines.append(f"{name:<14}{lin}      {ang}")
+        lines.append(f"{'contact':<22}{'gap [' + unit + ']':>14}{'force [N]':>12}  direction")
+        for c in self.contacts:
+            direction = c.force / c.force_magnitude if c.force_magnitude > 0 else c.force
+            lines.append(f"{c.label:<22}{c.gap * length:>14.4f}{c.force_magnitude:>12.5g}  "
+                         f"{np.array2string(direction, precision=3, suppress_small=True)}"
+                         f"{'  <- contact' if c.active else ''}")
+        if self.free_motions:
+            lines.append("free (indeterminate, set to zero): " + " | ".join(self.free_motions))
+        r = self.residuals
+        lines.append(
+            f"solver: {self.solver_status}, {self.iterations} iterations, polished={self.polished}; "
+            f"KKT {r.get('stationarity', 0):.1e}, statics {r.get('statics', 0):.1e}, "
+            f"max violation {r.get('max_violation_m', 0) * length:.1e} {unit}; "
+            f"build {self.build_time * 1e3:.2f} ms, solve {self.solve_time * 1e3:.2f} ms"
+        )
+        if self.difference:
+            lines.append(
+                f"exact - linear: {self.difference['translation_m'] * length:.3e} {unit}, "
+                f"{self.difference['rotation_rad']:.3e} rad"
+            )
+        return "\n".join(lines)
+
+
+def _scaled_torsor(torsor: np.ndarray, length: float) -> np.ndarray:
+    out = np.array(torsor, dtype=float)
+    out[:3] *= length
+    return out

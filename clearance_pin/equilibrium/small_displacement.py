@@ -1,0 +1,135 @@
+r"""Small-displacement maps of a mechanism at a nominal configuration (Pinocchio numbers).
+
+Unknowns: for every tree joint k, the coordinates :math:`t_k` of its torsor in a basis
+:math:`B_k` (6 x n_k) of the components that may move (free or bounded by play; rigid ones and
+those a drive locks are left out), :math:`T_k = B_k t_k`. Stacked: :math:`x = (t_1, ..., t_m)`.
+
+Spatial twists (at the world origin, world axes, Pinocchio's (v, omega) order) add along the tree:
+
+.. math::  \xi_i = \sum_{k \in \mathrm{support}(i)} \mathrm{Ad}(oM_k\, jM_{c,k})\, B_k\, t_k
+
+which is how a Pinocchio joint Jacobian is built, with the 6-D clearance torsor in place of the
+joint's motion subspace. A loop joint between frames a and b has the torsor
+:math:`T = \mathrm{Ad}(oM_a\, aM_c)^{-1} (\xi_b - \xi_a)` at its centre, in its clearance frame:
+the difference of the two parts' twists transported to the joint centre (METHOD.md section 1,
+closure holds by construction). The point P of body i moves by :math:`v_i + \omega_i \times p`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..model.joints import LoopJoint, TreeJoint
+
+
+@dataclass(frozen=True)
+class SmallDisplacementMaps:
+    """Linear maps of the mechanism at one configuration.
+
+    Attributes:
+        body_twist: per Pinocchio joint index i, the map x -> spatial twist of body i, (6, n).
+        joint_torsor: per joint name (tree and loop), the map x -> torsor in its clearance frame, (6, n).
+        joint_centre: per joint name, the clearance frame placement oM_c in the world (pin.SE3).
+        variable_joint: per variable, the name of the tree joint it belongs to.
+        variable_basis: per variable, its basis vector in that joint's torsor, (6,).
+    """
+
+    body_twist: list[np.ndarray]
+    joint_torsor: dict[str, np.ndarray]
+    joint_centre: dict[str, pin.SE3]
+    variable_joint: tuple[str, ...]
+    variable_basis: tuple[np.ndarray, ...]
+
+    @property
+    def size(self) -> int:
+        """Number of unknowns n."""
+        return len(self.variable_joint)
+
+
+def tree_joint_basis(joint: TreeJoint) -> np.ndarray:
+    """Basis (6, n_k) of the torsor components of a tree joint that may move.
+
+    Components are removed when rigid, locked by the drive, or held by a contact point with zero
+    clearance (the rows of that contact point vanish on the basis).
+    """
+    clearance = joint.clearance
+    fixed_rows = [np.eye(6)[c] for c in clearance.rigid_components + joint.locked_components]
+    for contact in clearance.contacts:
+        if contact.bound == 0.0:
+            fixed_rows.extend(contact.linear_rows())
+    if not fixed_rows:
+        return np.eye(6)
+    basis = null_space(np.array(fixed_rows))
+    return _align_to_axes(basis)
+
+
+def build_maps(
+    model: pin.Model,
+    data: pin.Data,
+    tree_joints: tuple[TreeJoint, ...],
+    loop_joints: tuple[LoopJoint, ...],
+) -> SmallDisplacementMaps:
+    """Build the maps at the configuration already placed in ``data`` (oMi and oMf up to date)."""
+    variable_joint: list[str] = []
+    variable_basis: list[np.ndarray] = []
+    columns_of: dict[int, tuple[int, int]] = {}
+    bases: dict[int, np.ndarray] = {}
+    for joint in tree_joints:
+        basis = tree_joint_basis(joint)
+        start = len(variable_joint)
+        for column in basis.T:
+            variable_joint.append(joint.name)
+            variable_basis.append(column)
+        columns_of[joint.joint_id] = (start, len(variable_joint))
+        bases[joint.joint_id] = basis
+    n = len(variable_joint)
+
+    body_twist = [np.zeros((6, n)) for _ in range(model.njoints)]
+    joint_torsor: dict[str, np.ndarray] = {}
+    joint_centre: dict[str, pin.SE3] = {}
+    by_id = {joint.joint_id: joint for joint in tree_joints}
+    for i in range(1, model.njoints):
+        parent = model.parents[i]
+        body_twist[i] = body_twist[parent].copy()
+        joint = by_id[i]
+        oMc = data.oMi[i] * pin.SE3(joint.rotation, np.zeros(3))
+        start, stop = columns_of[i]
+        body_twist[i][:, start:stop] += oMc.action @ bases[i]
+        torsor = np.zeros((6, n))
+        torsor[:, start:stop] = bases[i]
+        joint_torsor[joint.name] = torsor
+        joint_centre[joint.name] = oMc
+
+    for loop in loop_joints:
+        frame_a, frame_b = model.frames[loop.frame_a], model.frames[loop.frame_b]
+        oMc = data.oMf[loop.frame_a] * pin.SE3(loop.rotation, np.zeros(3))
+        relative = body_twist[frame_b.parentJoint] - body_twist[frame_a.parentJoint]
+        joint_torsor[loop.name] = oMc.inverse().action @ relative
+        joint_centre[loop.name] = oMc
+    return SmallDisplacementMaps(
+        body_twist, joint_torsor, joint_centre, tuple(variable_joint), tuple(variable_basis)
+    )
+
+
+def null_space(matrix: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
+    """Orthonormal basis (n, n - rank) of the null space of ``matrix`` (m, n), by SVD."""
+    matrix = np.atleast_2d(matrix)
+    n = matrix.shape[1]
+    if matrix.shape[0] == 0:
+        return np.eye(n)
+    _, s, vt = np.linalg.svd(matrix)
+    if s.size == 0 or s[0] == 0.0:
+        return np.eye(n)
+    rank = int(np.sum(s > rtol * s[0]))
+    return vt[rank:].T.copy()
+
+
+def _align_to_axes(basis: np.ndarray) -> np.ndarray:
+    """Replace a basis by coordinate vectors when it spans coordinate axes (the usual case)."""
+    support = np.flatnonzero(np.linalg.norm(basis, axis=1) > 1e-12)
+    if support.size == basis.shape[1]:
+        return np.eye(6)[:, support]
+    return basis

@@ -1,0 +1,162 @@
+"""Solve a mechanism's equilibrium: assemble, reduce, optimise, verify, report.
+
+The small-displacement path (:func:`solve_linear`) is the paper's model [Y]; the exact path
+(:func:`solve_exact`) re-solves with finite rigid motions from the linear answer.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import SolverError
+from .cone_solver import constraint_values, solver_for
+from .load_terms import gather_body_loads, load_gradient
+from .reduction import ReducedProblem, reduce
+from .result import Contact, Equilibrium
+from .small_displacement import SmallDisplacementMaps, build_maps
+
+ACTIVE_RELATIVE_GAP = 1e-7
+
+
+def linear_setup(mechanism, loads, q):
+    """Configuration, maps, per-body loads and reduced problem for one solve."""
+    configuration = mechanism.configure(q)
+    maps = build_maps(mechanism.model, mechanism.data, mechanism.tree_joints, mechanism.loop_joints)
+    body_loads = gather_body_loads(mechanism.model, mechanism.data, loads, mechanism.link_frames)
+    gradient = load_gradient(body_loads, maps.body_twist)
+    problem = reduce(maps, mechanism.joints, gradient, mechanism.length_scale())
+    return configuration, maps, body_loads, problem
+
+
+def solve_linear(mechanism, loads, q=None, tol: float = 1e-12) -> Equilibrium:
+    """Small-displacement equilibrium (METHOD.md section 1) with its residuals measured."""
+    started = time.perf_counter()
+    configuration, maps, _, problem = linear_setup(mechanism, loads, q)
+    setup_time = time.perf_counter() - started
+    if problem.objective_scale == 0.0 or not problem.contacts or problem.size == 0:
+        y = np.zeros(problem.size)
+        return _assemble(mechanism, maps, problem, y, np.zeros(len(problem.contacts)),
+                         np.ones(len(problem.contacts)), "indeterminate",
+                         "no load works on any admissible motion", 0, False, 0.0,
+                         time.perf_counter() - started, {})
+    solver, built_now = solver_for(problem, tol)
+    solution = solver.solve(problem)
+    build_time = solver.build_time if built_now else 0.0
+    residuals = {
+        "stationarity": solution.stationarity,
+        "feasibility": solution.feasibility,
+        "complementarity": solution.complementarity,
+        "dual_infeasibility": solution.dual_infeasibility,
+    }
+    equilibrium = _assemble(
+        mechanism, maps, problem, solution.y, solution.multipliers, solution.signs, "optimal",
+        solution.status, solution.iterations, solution.polished, build_time,
+        setup_time + solution.solve_time, residuals,
+    )
+    if not equilibrium.ok:
+        raise SolverError("the small-displacement solve did not reach a verified optimum",
+                          solution.status, equilibrium.residuals)
+    return equilibrium
+
+
+def _assemble(mechanism, maps: SmallDisplacementMaps, problem: ReducedProblem, y, multipliers,
+              signs, status, solver_status, iterations, polished, build_time, solve_time,
+              residuals) -> Equilibrium:
+    x = problem.x_from_y(y)
+    torsors = {name: maps.joint_torsor[name] @ x for name in mechanism.joints}
+    model = mechanism.model
+    twists = [maps.body_twist[i] @ x for i in range(model.njoints)]
+    oMi = [m.copy() for m in mechanism.data.oMi]
+    body_motions = {
+        model.names[i]: (twists[i][:3] + np.cross(twists[i][3:], oMi[i].translation), twists[i][3:])
+        for i in range(1, model.njoints)
+    }
+    contacts = _contacts(problem, x, multipliers, signs)
+    residuals = dict(residuals)
+    residuals["statics"] = statics_residual(problem, x, contacts)
+    residuals["max_violation_m"] = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
+    residuals["clearance_m"] = max((c.clearance for c in contacts), default=0.0)
+    oMf = [m.copy() for m in mechanism.data.oMf]
+
+    def frame_motion(frame: str):
+        frame_id = _frame_id(mechanism, frame)
+        twist = twists[model.frames[frame_id].parentJoint]
+        return twist[:3] + np.cross(twist[3:], oMf[frame_id].translation), twist[3:].copy()
+
+    return Equilibrium(
+        formulation="linear",
+        torsors=torsors,
+        body_motions=body_motions,
+        contacts=contacts,
+        energy=float(problem.gradient @ x),
+        status=status,
+        solver_status=solver_status,
+        iterations=iterations,
+        residuals=residuals,
+        free_motions=problem.free_descriptions,
+        build_time=build_time,
+        solve_time=solve_time,
+        polished=polished,
+        _frame_motion=frame_motion,
+    )
+
+
+def _contacts(problem: ReducedProblem, x, multipliers, signs) -> tuple[Contact, ...]:
+    contacts = []
+    for j, constraint in enumerate(problem.contacts):
+        point = constraint.contact
+        image = constraint.rows @ x
+        bound = point.bound
+        if point.shape == "norm":
+            gap = bound - float(np.linalg.norm(image))
+            local = -2.0 * problem.objective_scale * multipliers[j] * image / bound**2
+        else:
+            gap = bound - abs(float(image[0]))
+            local = np.array([-problem.objective_scale * multipliers[j] * signs[j] / bound])
+        force = np.zeros(3)
+        force[list(point.components)] = local
+        active = gap <= ACTIVE_RELATIVE_GAP * bound or multipliers[j] > 0.0 and gap <= 1e-6 * bound
+        contacts.append(Contact(constraint.joint, point.name, gap, bound, force, bool(active)))
+    return tuple(contacts)
+
+
+def statics_residual(problem: ReducedProblem, x: np.ndarray, contacts) -> float:
+    r"""Relative virtual-work residual of the load and the reported contact forces.
+
+    For every admissible motion the load and the contact forces do no net work:
+    :math:`g = \sum_j S_j^T f_j + E^T \nu` with the rigid reactions :math:`\nu` fitted by least
+    squares; returns :math:`\|Z (g - \sum S_j^T f_j - E^T\nu)\| / \|Z g\|` (Z: variable scales).
+    """
+    residual = problem.gradient.copy()
+    for constraint, contact in zip(problem.contacts, contacts):
+        residual -= constraint.rows.T @ contact.force[list(constraint.contact.components)]
+    scale = problem.scale
+    if problem.equalities.size:
+        reactions = problem.equalities.T * scale[:, None]
+        nu = np.linalg.lstsq(reactions, scale * residual, rcond=None)[0]
+        scaled = scale * residual - reactions @ nu
+    else:
+        scaled = scale * residual
+    reference = float(np.linalg.norm(scale * problem.gradient))
+    return float(np.linalg.norm(scaled) / reference) if reference > 0.0 else 0.0
+
+
+def _frame_id(mechanism, frame: str) -> int:
+    from ..errors import ClearancePinError
+
+    if not mechanism.model.existFrame(frame):
+        raise ClearancePinError(f"unknown frame {frame!r} in {mechanism.name!r}")
+    return mechanism.model.getFrameId(frame)
+
+
+def solve_exact(mechanism, loads, q, linear: Equilibrium, tol: float = 1e-12) -> Equilibrium:
+    """Exact finite-displacement equilibrium, warm-started from ``linear``."""
+    from .exact import solve_exact_model
+
+    return solve_exact_model(mechanism, loads, q, linear, tol)
+
+
+__all__ = ["solve_linear", "solve_exact", "statics_residual", "constraint_values", "pin"]

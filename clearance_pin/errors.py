@@ -1,0 +1,75 @@
+"""Exceptions of clearance_pin.
+
+Every error the library raises on purpose derives from :class:`ClearancePinError` and carries its
+data as attributes, so that callers (scripts, planners, tests) can act on them without parsing text.
+Errors of Pinocchio, CasADi or coal are caught at the library's edge and re-raised as one of these.
+"""
+
+from __future__ import annotations
+
+
+class ClearancePinError(Exception):
+    """Base class of every error raised by clearance_pin."""
+
+
+class ModelError(ClearancePinError, ValueError):
+    """A model description is invalid.
+
+    Attributes:
+        source: file path (or ``"<api>"`` when built from Python).
+        element: the offending element, e.g. ``"<clearance joint='I2'>"``.
+        problem: what is wrong, with the expected and the found value.
+    """
+
+    def __init__(self, source: str, element: str, problem: str):
+        self.source = source
+        self.element = element
+        self.problem = problem
+        super().__init__(f"{source}: {element}: {problem}")
+
+
+class LoadError(ClearancePinError, ValueError):
+    """A load is invalid (unknown link, non-finite value, wrong shape)."""
+
+    def __init__(self, load: str, problem: str):
+        self.load = load
+        self.problem = problem
+        super().__init__(f"load {load}: {problem}")
+
+
+class UnboundedLoadError(ClearancePinError):
+    """The load drives a motion that nothing blocks: no equilibrium exists.
+
+    Attributes:
+        motions: human-readable descriptions of the unblocked motion(s), largest first.
+        fraction: share of the (scaled) load that works along the unblocked motion, in [0, 1].
+    """
+
+    def __init__(self, motions: list[str], fraction: float):
+        self.motions = motions
+        self.fraction = fraction
+        listed = "; ".join(motions)
+        super().__init__(
+            "no equilibrium: the load has a component along a motion that no clearance or joint "
+            f"blocks ({fraction:.3g} of the load): {listed}. Lock (drive) that joint, add the "
+            "missing joint, or remove that load component."
+        )
+
+
+class SolverError(ClearancePinError):
+    """The optimiser failed, or its answer failed our own checks.
+
+    Attributes:
+        status: the solver's status string.
+        residuals: dict of the residuals we measured (feasibility, stationarity, ...).
+    """
+
+    def __init__(self, message: str, status: str, residuals: dict[str, float] | None = None):
+        self.status = status
+        self.residuals = dict(residuals or {})
+        detail = ", ".join(f"{k}={v:.3g}" for k, v in self.residuals.items())
+        super().__init__(f"{message} (status: {status}{'; ' + detail if detail else ''})")
+
+
+class UnsupportedError(ClearancePinError, NotImplementedError):
+    """A feature combination that clearance_pin does not handle (named in the message)."""

@@ -1,0 +1,172 @@
+"""A mechanism with joint clearances: the Pinocchio tree, its loop joints, its loads.
+
+Build once, solve many: :meth:`Mechanism.solve` re-uses the built optimiser for every load,
+clearance or nominal configuration of the same structure.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import ClearancePinError, LoadError, ModelError
+from .model.joints import LoopJoint, TreeJoint
+from .model.loads import Gravity, Load, PointForce, Torque
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """The mechanism placed at one nominal configuration (Pinocchio numbers, read-only).
+
+    Attributes:
+        q: joint configuration (nq,).
+        oMi: world placement of every joint frame (copies).
+        oMf: world placement of every frame (copies).
+        loop_rotation_b: per loop joint, rotation of its clearance frame in ``frame_b`` (3, 3).
+    """
+
+    q: np.ndarray
+    oMi: tuple
+    oMf: tuple
+    loop_rotation_b: dict
+
+
+class Mechanism:
+    """A mechanism: ``pin.Model`` + joint clearances + loop joints + loads (SI units).
+
+    Use :func:`clearance_pin.load` to read one from a model file.
+
+    Attributes:
+        model: the Pinocchio model of the kinematic tree.
+        tree_joints: every joint of the tree with its clearance (ideal when none was given).
+        loop_joints: the cut joints closing loops.
+        q_nominal: nominal configuration (nq,).
+        loads: default loads of :meth:`solve`.
+        gravity: gravity applied by default (None: off).
+        source: where the description came from (file path or ``"<api>"``).
+    """
+
+    def __init__(
+        self,
+        model: pin.Model,
+        tree_joints: tuple[TreeJoint, ...],
+        loop_joints: tuple[LoopJoint, ...] = (),
+        q_nominal: np.ndarray | None = None,
+        loads: tuple[Load, ...] = (),
+        gravity: Gravity | None = None,
+        source: str = "<api>",
+        name: str = "",
+        collision_model=None,
+    ):
+        self.model = model
+        self.data = model.createData()
+        self.tree_joints = tuple(tree_joints)
+        self.loop_joints = tuple(loop_joints)
+        self.q_nominal = pin.neutral(model) if q_nominal is None else np.array(q_nominal, float)
+        self.loads = tuple(loads)
+        self.gravity = gravity
+        self.source = source
+        self.name = name or model.name
+        self.collision_model = collision_model
+        self.link_frames = {
+            f.name: i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY
+        }
+        self.joints = {j.name: j for j in self.tree_joints}
+        self.joints.update({j.name: j for j in self.loop_joints})
+        if len(self.joints) != len(self.tree_joints) + len(self.loop_joints):
+            raise ModelError(source, "<joints>", "joint names must be unique across tree and loops")
+        self._solve_state: dict = {}
+
+    # -- configuration ---------------------------------------------------------------------
+    def configure(self, q: np.ndarray | None = None) -> Configuration:
+        """Place the mechanism at ``q`` (default: nominal) and check that every loop closes."""
+        q = self.q_nominal if q is None else np.asarray(q, dtype=float)
+        if q.shape != (self.model.nq,) or not np.all(np.isfinite(q)):
+            raise ClearancePinError(
+                f"configuration must be {self.model.nq} finite numbers, got shape {q.shape}"
+            )
+        pin.forwardKinematics(self.model, self.data, q)
+        pin.updateFramePlacements(self.model, self.data)
+        oMi = tuple(m.copy() for m in self.data.oMi)
+        oMf = tuple(m.copy() for m in self.data.oMf)
+        rotation_b = {}
+        for loop in self.loop_joints:
+            oMc = oMf[loop.frame_a] * pin.SE3(loop.rotation, np.zeros(3))
+            gap = oMf[loop.frame_b].translation - oMc.translation
+            if np.linalg.norm(gap) > 1e-9 * max(1.0, self.length_scale()):
+                raise ModelError(
+                    self.source, f"<loop_joint name='{loop.name}'>",
+                    f"frames {self.model.frames[loop.frame_a].name!r} and "
+                    f"{self.model.frames[loop.frame_b].name!r} must coincide at the nominal "
+                    f"configuration; they are {np.linalg.norm(gap):.3e} m apart",
+                )
+            rotation_b[loop.name] = oMf[loop.frame_b].rotation.T @ oMc.rotation
+        return Configuration(q.copy(), oMi, oMf, rotation_b)
+
+    def length_scale(self) -> float:
+        """Characteristic length [m]: the largest distance of a joint origin from the root."""
+        if not hasattr(self, "_length_scale"):
+            data = self.model.createData()
+            pin.forwardKinematics(self.model, data, self.q_nominal)
+            pin.updateFramePlacements(self.model, data)
+            extent = max((np.linalg.norm(m.translation) for m in data.oMi), default=0.0)
+            lengths = [j.clearance.length for j in self.joints.values()]
+            self._length_scale = max([extent, *lengths]) or 1.0
+        return self._length_scale
+
+    # -- loads ----------------------------------------------------------------------------
+    def resolve_loads(self, loads=None, gravity=None) -> tuple[Load, ...]:
+        """The loads of a solve: ``loads`` (default: the model's) plus gravity if switched on."""
+        chosen = self.loads if loads is None else tuple(loads)
+        for load in chosen:
+            if not isinstance(load, (PointForce, Torque, Gravity)):
+                raise LoadError(repr(load), "expected PointForce, Torque or Gravity")
+            if not isinstance(load, Gravity) and load.link not in self.link_frames:
+                raise LoadError(
+                    f"on {load.link!r}",
+                    f"unknown link; the links are: {', '.join(sorted(self.link_frames))}",
+                )
+        if gravity is True:
+            gravity = self.gravity or Gravity()
+        elif gravity is None:
+            gravity = self.gravity
+        if gravity:
+            chosen = chosen + (gravity,)
+        return chosen
+
+    # -- solving --------------------------------------------------------------------------
+    def solve(self, loads=None, exact: bool = False, q=None, gravity=None, tol: float = 1e-12):
+        """Quasi-static equilibrium of the parts in their joint clearances.
+
+        Args:
+            loads: PointForce / Torque / Gravity loads; default: those of the model file.
+            exact: also solve the exact finite-displacement model (warm-started from the linear
+                one) and return it, with the linear solution in ``.linear``.
+            q: nominal configuration (default: the model's); driven joints are held there.
+            gravity: True / a :class:`Gravity` to add gravity, False to switch it off,
+                None for the model's setting.
+            tol: optimiser tolerance (dimensionless, on clearance-scaled unknowns).
+
+        Returns:
+            :class:`~clearance_pin.equilibrium.result.Equilibrium`.
+        """
+        from .equilibrium.solve import solve_exact, solve_linear
+
+        gravity_load = False if gravity is False else gravity
+        resolved = self.resolve_loads(loads, gravity_load)
+        linear = solve_linear(self, resolved, q, tol)
+        if not exact:
+            return linear
+        return solve_exact(self, resolved, q, linear, tol)
+
+    def joint(self, name: str):
+        """The tree or loop joint called ``name``."""
+        if name not in self.joints:
+            raise ClearancePinError(f"unknown joint {name!r}; the joints are: {', '.join(self.joints)}")
+        return self.joints[name]
+
+    def __repr__(self) -> str:
+        return (f"Mechanism({self.name!r}: {len(self.tree_joints)} tree joints, "
+                f"{len(self.loop_joints)} loop joints, {len(self.loads)} loads)")

@@ -1,0 +1,75 @@
+"""Loads applied to a mechanism: forces at points, torques, gravity.
+
+All in SI and in world axes at the nominal configuration. A load acts on a *link* (a URDF link,
+i.e. a Pinocchio BODY frame); its point is given in that link's frame.
+
+The potential of the loads (METHOD.md section 1, [Y]):
+
+.. math::  \\mathcal{V} = -\\sum (F \\cdot U_P + C \\cdot \\Theta)
+
+with :math:`U_P` the displacement of the point of application and :math:`\\Theta` the rotation of
+the loaded part.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import LoadError
+
+
+def _vector3(label: str, name: str, value) -> np.ndarray:
+    try:
+        array = np.array(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise LoadError(label, f"{name} must be 3 numbers, got {value!r}") from exc
+    if array.shape != (3,):
+        raise LoadError(label, f"{name} must have 3 components, got {array.size}")
+    if not np.all(np.isfinite(array)):
+        raise LoadError(label, f"{name} must be finite, got {array.tolist()}")
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True)
+class PointForce:
+    """A force [N] (world axes) applied at ``point`` [m] of ``link`` (in the link frame)."""
+
+    link: str
+    force: np.ndarray
+    point: np.ndarray = (0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        label = f"force on {self.link!r}"
+        object.__setattr__(self, "force", _vector3(label, "force", self.force))
+        object.__setattr__(self, "point", _vector3(label, "point", self.point))
+
+
+@dataclass(frozen=True)
+class Torque:
+    """A torque [N m] (world axes) applied to ``link``."""
+
+    link: str
+    torque: np.ndarray
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "torque", _vector3(f"torque on {self.link!r}", "torque", self.torque))
+
+
+@dataclass(frozen=True)
+class Gravity:
+    """Gravity acting on every body's URDF inertial: acceleration [m/s^2] in world axes."""
+
+    acceleration: np.ndarray = (0.0, 0.0, -9.81)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "acceleration", _vector3("gravity", "acceleration", self.acceleration)
+        )
+
+
+Load = PointForce | Torque | Gravity
+
+

@@ -1,0 +1,343 @@
+"""Read a mechanism from a URDF with a ``<clearance_pin>`` block (format: docs/model-format.md).
+
+The URDF holds the kinematic tree at its nominal configuration; the ``<clearance_pin>`` element
+(ignored by other URDF tools, as ``<gazebo>`` blocks are) adds joint clearances, loop joints,
+driven joints, nominal joint values and loads. Every problem found is raised as a
+:class:`~clearance_pin.errors.ModelError` naming the file, the element and the problem; nothing is
+half-loaded.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import LoadError, ModelError
+from .clearance import KINDS, Clearance, ideal
+from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
+from .loads import Gravity, PointForce, Torque
+
+BLOCK = "clearance_pin"
+CLEARANCE_ATTRIBUTES = {
+    "radial_clearance": "radial", "length": "length", "axial_clearance": "axial",
+    "play_z": "play_z", "width": "width", "height": "height",
+}
+JOINT_ATTRIBUTES = {"name", "type", "diametral_clearance", "driven", "q", "axis",
+                    *CLEARANCE_ATTRIBUTES}
+LOOP_ATTRIBUTES = {"name", "type", "frame_a", "frame_b", "diametral_clearance", "axis",
+                   *CLEARANCE_ATTRIBUTES}
+IDEAL_KIND_OF_URDF = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic",
+                      "floating": "free"}
+
+
+def load(path: str | Path):
+    """Read a mechanism from a model file (URDF + ``<clearance_pin>``).
+
+    Args:
+        path: the ``.urdf`` file.
+
+    Returns:
+        :class:`~clearance_pin.mechanism.Mechanism`.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ModelError(str(path), "<file>", f"cannot be read: {exc.strerror or exc}") from None
+    return loads(text, source=str(path), mesh_dir=path.parent)
+
+
+def loads(text: str, source: str = "<string>", mesh_dir: Path | None = None):
+    """Read a mechanism from the text of a model file (see :func:`load`)."""
+    from ..mechanism import Mechanism
+
+    reader = _Reader(text, source)
+    model = reader.pin_model()
+    block = reader.block()
+    collision = reader.collision_model(model, mesh_dir)
+    tree_joints, q = reader.tree_joints(model, block)
+    loop_joints = reader.loop_joints(model, block)
+    forces, gravity = reader.loads(model, block)
+    return Mechanism(model, tree_joints, loop_joints, q, forces, gravity, source=source,
+                     name=reader.root.get("name", ""), collision_model=collision)
+
+
+class _Reader:
+    def __init__(self, text: str, source: str):
+        self.text = text
+        self.source = source
+        try:
+            self.root = ET.fromstring(text)
+        except ET.ParseError as exc:
+            raise ModelError(source, "<xml>", f"malformed XML: {exc}") from None
+        if self.root.tag != "robot":
+            raise ModelError(source, f"<{self.root.tag}>", "the root element must be <robot>")
+        self.urdf_joints = {}
+        parents: dict[str, str] = {}
+        for element in self.root.findall("joint"):
+            name = element.get("name")
+            if not name:
+                raise ModelError(source, "<joint>", "a URDF joint needs a name")
+            if name in self.urdf_joints:
+                raise ModelError(source, f"<joint name='{name}'>", "duplicate joint name")
+            self.urdf_joints[name] = element
+            child = element.find("child")
+            child_link = child.get("link") if child is not None else None
+            if child_link in parents:
+                raise ModelError(
+                    source, f"<joint name='{name}'>",
+                    f"link {child_link!r} is already the child of joint {parents[child_link]!r}: a "
+                    "URDF is a tree, and Pinocchio would silently corrupt the model. Declare the "
+                    "second joint as a <loop_joint> in the <clearance_pin> block.",
+                )
+            if child_link:
+                parents[child_link] = name
+
+    def pin_model(self) -> pin.Model:
+        try:
+            return pin.buildModelFromXML(self.text)
+        except (RuntimeError, ValueError) as exc:
+            raise ModelError(self.source, "<robot>", f"Pinocchio cannot build the URDF: {exc}") from None
+
+    def collision_model(self, model: pin.Model, mesh_dir: Path | None):
+        if self.root.find(".//collision") is None:
+            return None
+        try:
+            dirs = [str(mesh_dir)] if mesh_dir is not None else []
+            return pin.buildGeomFromUrdfString(model, self.text, pin.GeometryType.COLLISION, dirs)
+        except (RuntimeError, ValueError) as exc:
+            raise ModelError(self.source, "<collision>", f"cannot be loaded: {exc}") from None
+
+    def block(self) -> ET.Element:
+        blocks = self.root.findall(BLOCK)
+        if len(blocks) > 1:
+            raise ModelError(self.source, f"<{BLOCK}>", "only one block is allowed")
+        block = blocks[0] if blocks else ET.Element(BLOCK)
+        allowed = {"joint", "loop_joint", "force", "torque", "gravity"}
+        for child in block:
+            if child.tag not in allowed:
+                raise ModelError(self.source, f"<{child.tag}>",
+                                 f"unknown element in <{BLOCK}>; expected one of {sorted(allowed)}")
+        return block
+
+    # -- joints ---------------------------------------------------------------------------
+    def tree_joints(self, model: pin.Model, block: ET.Element):
+        declared: dict[str, ET.Element] = {}
+        for element in block.findall("joint"):
+            label = _label(element)
+            _check_attributes(self.source, element, JOINT_ATTRIBUTES)
+            name = element.get("name")
+            if not name:
+                raise ModelError(self.source, label, "needs a name (a URDF joint's name)")
+            if name in declared:
+                raise ModelError(self.source, label, "declared twice")
+            if name not in self.urdf_joints:
+                raise ModelError(self.source, label, f"no URDF joint is called {name!r}; the URDF "
+                                 f"joints are: {', '.join(self.urdf_joints) or 'none'}")
+            if self.urdf_joints[name].get("type") == "fixed":
+                raise ModelError(self.source, label, "the URDF joint is fixed: Pinocchio merges its "
+                                 "two links into one body, so it cannot carry play. Give it type "
+                                 "'floating' (any play) or 'revolute' in the URDF.")
+            declared[name] = element
+        q = pin.neutral(model)
+        joints = []
+        for joint_id in range(1, model.njoints):
+            name = model.names[joint_id]
+            urdf_type = self.urdf_joints[name].get("type") if name in self.urdf_joints else None
+            pin_joint = model.joints[joint_id]
+            shortname = pin_joint.shortname()
+            element = declared.get(name)
+            label = _label(element) if element is not None else f"<joint name='{name}'>"
+            if shortname not in MOTION_COMPONENT_BY_PIN_JOINT:
+                raise ModelError(self.source, label, f"joint type {urdf_type!r} ({shortname}) is "
+                                 "not supported; use revolute, continuous, prismatic or floating")
+            motion = MOTION_COMPONENT_BY_PIN_JOINT[shortname]
+            if motion is None:
+                axis = _vector(self.source, element, "axis", default=(1.0, 0.0, 0.0))
+            else:
+                if element is not None and element.get("axis") is not None:
+                    raise ModelError(self.source, label, "the axis of a revolute or prismatic joint "
+                                     "is the URDF joint's <axis>; remove the attribute")
+                axis = _pin_axis(pin_joint)
+            clearance = self._clearance(element, label, IDEAL_KIND_OF_URDF.get(urdf_type, "free"))
+            if motion is not None and motion not in clearance.free_components:
+                raise ModelError(self.source, label, f"a {clearance.kind} clearance does not allow "
+                                 f"the motion of the URDF {urdf_type} joint")
+            driven = _boolean(self.source, element, "driven", False)
+            if driven and motion is None:
+                raise ModelError(self.source, label, "a floating joint has no single motion to drive")
+            if element is not None and element.get("q") is not None:
+                _set_nominal(self.source, label, model, joint_id, q, _number(self.source, element, "q"))
+            joints.append(TreeJoint(name, joint_id, clearance, rotation_x_to(axis), motion, driven))
+        return tuple(joints), q
+
+    def loop_joints(self, model: pin.Model, block: ET.Element):
+        joints = []
+        names = set(model.names)
+        for element in block.findall("loop_joint"):
+            label = _label(element)
+            _check_attributes(self.source, element, LOOP_ATTRIBUTES)
+            name = element.get("name")
+            if not name:
+                raise ModelError(self.source, label, "needs a name")
+            if name in names:
+                raise ModelError(self.source, label, "a joint of that name exists already")
+            names.add(name)
+            frames = []
+            for key in ("frame_a", "frame_b"):
+                frame = element.get(key)
+                if not frame:
+                    raise ModelError(self.source, label, f"needs {key} (a link or frame name)")
+                if not model.existFrame(frame):
+                    known = ", ".join(sorted({f.name for f in model.frames}))
+                    raise ModelError(self.source, label, f"unknown frame {frame!r} ({key}); the "
+                                     f"frames are: {known}")
+                frames.append(model.getFrameId(frame))
+            if model.frames[frames[0]].parentJoint == model.frames[frames[1]].parentJoint:
+                raise ModelError(self.source, label, "frame_a and frame_b are on the same body: a "
+                                 "loop joint must join two different bodies")
+            kind = element.get("type")
+            if kind is None:
+                raise ModelError(self.source, label, f"needs a type, one of {KINDS}")
+            clearance = self._clearance(element, label, kind)
+            axis = _vector(self.source, element, "axis", default=(1.0, 0.0, 0.0))
+            joints.append(LoopJoint(name, frames[0], frames[1], clearance, rotation_x_to(axis)))
+        return tuple(joints)
+
+    def _clearance(self, element, label: str, default_kind: str) -> Clearance:
+        if element is None or element.get("type") is None:
+            if element is not None and any(element.get(a) for a in (*CLEARANCE_ATTRIBUTES,
+                                                                   "diametral_clearance")):
+                raise ModelError(self.source, label, f"clearances need a type, one of {KINDS}")
+            return ideal(default_kind)
+        kind = element.get("type")
+        if kind not in KINDS:
+            raise ModelError(self.source, label, f"unknown type {kind!r}; expected one of {KINDS}")
+        values = {}
+        for attribute, field_name in CLEARANCE_ATTRIBUTES.items():
+            if element.get(attribute) is not None:
+                values[field_name] = _number(self.source, element, attribute, nonnegative=True)
+        if element.get("diametral_clearance") is not None:
+            if "radial" in values:
+                raise ModelError(self.source, label, "give radial_clearance or "
+                                 "diametral_clearance, not both")
+            values["radial"] = 0.5 * _number(self.source, element, "diametral_clearance",
+                                             nonnegative=True)
+        if kind in ("cylindrical", "revolute", "prismatic") and values.get("length", 0.0) <= 0.0:
+            raise ModelError(self.source, label, f"a {kind} joint needs length > 0 [m] (the journal "
+                             "or block length)")
+        if kind not in ("free", "rigid") and "radial" not in values:
+            raise ModelError(self.source, label, "needs radial_clearance or diametral_clearance [m] "
+                             "(0 for an ideal joint)")
+        try:
+            return Clearance(kind, **values)
+        except ValueError as exc:
+            raise ModelError(self.source, label, str(exc)) from None
+
+    # -- loads ----------------------------------------------------------------------------
+    def loads(self, model: pin.Model, block: ET.Element):
+        links = {f.name for f in model.frames if f.type == pin.FrameType.BODY}
+        loads = []
+        for element in block:
+            label = _label(element)
+            if element.tag not in ("force", "torque"):
+                continue
+            _check_attributes(self.source, element, {"link", "point", "value"})
+            link = element.get("link")
+            if link not in links:
+                raise ModelError(self.source, label, f"unknown link {link!r}; the links are: "
+                                 f"{', '.join(sorted(links))}")
+            value = _vector(self.source, element, "value", allow_zero=True)
+            try:
+                if element.tag == "force":
+                    point = _vector(self.source, element, "point", default=(0.0, 0.0, 0.0),
+                                    allow_zero=True)
+                    loads.append(PointForce(link, value, point))
+                else:
+                    loads.append(Torque(link, value))
+            except LoadError as exc:
+                raise ModelError(self.source, label, str(exc)) from None
+        gravity = None
+        for element in block.findall("gravity"):
+            _check_attributes(self.source, element, {"value", "enabled"})
+            if _boolean(self.source, element, "enabled", True):
+                gravity = Gravity(_vector(self.source, element, "value", default=(0, 0, -9.81),
+                                          allow_zero=True))
+        return tuple(loads), gravity
+
+
+def _label(element: ET.Element | None) -> str:
+    if element is None:
+        return "<?>"
+    name = element.get("name") or element.get("link")
+    key = "name" if element.get("name") else "link"
+    return f"<{element.tag} {key}='{name}'>" if name else f"<{element.tag}>"
+
+
+def _check_attributes(source: str, element: ET.Element, allowed: set[str]) -> None:
+    unknown = sorted(set(element.attrib) - allowed)
+    if unknown:
+        raise ModelError(source, _label(element), f"unknown attribute(s) {unknown}; allowed: "
+                         f"{sorted(allowed)}")
+
+
+def _number(source: str, element: ET.Element, attribute: str, nonnegative: bool = False) -> float:
+    text = element.get(attribute)
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        raise ModelError(source, _label(element), f"{attribute}={text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise ModelError(source, _label(element), f"{attribute}={text!r} must be finite")
+    if nonnegative and value < 0.0:
+        raise ModelError(source, _label(element), f"{attribute}={text!r} must be >= 0 [m]")
+    return value
+
+
+def _vector(source: str, element, attribute: str, default=None, allow_zero: bool = False):
+    text = element.get(attribute) if element is not None else None
+    if text is None:
+        if default is None:
+            raise ModelError(source, _label(element), f"needs {attribute} (3 numbers)")
+        return np.array(default, dtype=float)
+    try:
+        value = np.array([float(v) for v in text.split()], dtype=float)
+    except ValueError:
+        raise ModelError(source, _label(element), f"{attribute}={text!r} is not 3 numbers") from None
+    if value.shape != (3,) or not np.all(np.isfinite(value)):
+        raise ModelError(source, _label(element), f"{attribute}={text!r} must be 3 finite numbers")
+    if not allow_zero and np.linalg.norm(value) == 0.0:
+        raise ModelError(source, _label(element), f"{attribute} has zero length")
+    return value
+
+
+def _boolean(source: str, element, attribute: str, default: bool) -> bool:
+    text = element.get(attribute) if element is not None else None
+    if text is None:
+        return default
+    if text.lower() in ("true", "1", "yes"):
+        return True
+    if text.lower() in ("false", "0", "no"):
+        return False
+    raise ModelError(source, _label(element), f"{attribute}={text!r} must be true or false")
+
+
+def _pin_axis(pin_joint) -> np.ndarray:
+    shortname = pin_joint.shortname()
+    if shortname[-1] in "XYZ" and "Unaligned" not in shortname:
+        return np.eye(3)["XYZ".index(shortname[-1])]
+    return np.array(pin_joint.extract().axis, dtype=float)
+
+
+def _set_nominal(source, label, model, joint_id, q, value: float) -> None:
+    joint = model.joints[joint_id]
+    if joint.nq == 1:
+        q[joint.idx_q] = value
+    elif joint.nq == 2 and joint.nv == 1:
+        q[joint.idx_q:joint.idx_q + 2] = (math.cos(value), math.sin(value))
+    else:
+        raise ModelError(source, label, "a nominal value q applies to 1-DOF joints only")
