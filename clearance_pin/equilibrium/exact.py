@@ -1,0 +1,305 @@
+r"""The exact finite-displacement equilibrium (METHOD.md section 1, "exact model").
+
+Each tree joint k moves its child by the finite rigid motion
+:math:`\Delta_k = C_k \exp(\widehat{B_k t_k}) C_k^{-1}` (SE(3) exponential of the torsor in the
+clearance frame :math:`C_k`), composed along the tree by the CasADi mirror of Pinocchio's forward
+kinematics. A loop joint reads the true relative placement :math:`(R, p)` of its two clearance
+frames. The contact conditions of :mod:`clearance_pin.model.clearance` are written on the true
+positions of the contact points, :math:`d = p + R r - r`; rigid loop components are
+:math:`p_i = 0`, and :math:`(R e_x)_{y,z} = 0` or :math:`\mathrm{vee}((R - R^T)/2) = 0` for
+rotations. The potential is the exact work of the loads (:mod:`.load_terms`).
+
+The same unknowns as the linear model are used, so the linear solution is the warm start, and the
+motions that no contact sees are fixed by the same gauge (minimum-norm in the linear sense).
+The difference from the linear model is of second order (rotation x displacement).
+"""
+
+from __future__ import annotations
+
+import time
+
+import casadi as ca
+import numpy as np
+import pinocchio as pin
+
+from ..errors import SolverError, UnsupportedError
+from ..kinematics.casadi_kinematics import CasadiKinematics
+from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_exp
+from ..model.clearance import ALPHA, BETA, GAMMA
+from .result import Contact, Equilibrium
+from .small_displacement import null_space, tree_joint_basis
+
+
+class ExactProblem:
+    """The exact NLP of one mechanism structure, built once (parameters: q, loads, clearances)."""
+
+    def __init__(self, mechanism, linear_problem, equality_rows: np.ndarray, tol: float):
+        started = time.perf_counter()
+        model = mechanism.model
+        self.mechanism = mechanism
+        n = linear_problem.gradient.size
+        self.n = n
+        kin = CasadiKinematics(model)
+        z = ca.SX.sym("z", n)
+        q = ca.SX.sym("q", model.nq)
+        scale = ca.SX.sym("scale", n)
+        x = scale * z
+        nbody = model.njoints
+        load_params = ca.SX.sym("loads", 15, nbody)
+        loops = mechanism.loop_joints
+        rotation_b = ca.SX.sym("rotation_b", 9, max(len(loops), 1))
+        contacts = [(name, point) for name, joint in mechanism.joints.items()
+                    for point in joint.clearance.contacts if point.bound > 0.0]
+        bounds = ca.SX.sym("bounds", len(contacts))
+        gauge_count = linear_problem.free_motions.shape[1]
+        gauge = ca.SX.sym("gauge", n, gauge_count)
+        sigma = ca.SX.sym("sigma")
+
+        deltas, relative, offset = {}, {}, 0
+        for joint in mechanism.tree_joints:
+            basis = tree_joint_basis(joint)
+            k = basis.shape[1]
+            torsor = ca.mtimes(ca.DM(basis), x[offset:offset + k]) if k else ca.SX.zeros(6)
+            offset += k
+            R_t, p_t = se3_exp(torsor)
+            relative[joint.name] = (R_t, p_t)
+            C = ca.DM(joint.rotation)
+            deltas[joint.joint_id] = (ca.mtimes([C, R_t, C.T]), ca.mtimes(C, p_t))
+        nominal = kin.joint_placements(q)
+        placed = kin.joint_placements(q, deltas)
+        for index, loop in enumerate(loops):
+            C_a = (ca.DM(loop.rotation), ca.DM.zeros(3))
+            C_b = (ca.reshape(rotation_b[:, index], 3, 3), ca.DM.zeros(3))
+            oMa = compose(kin.frame_placement(placed, loop.frame_a), C_a)
+            oMb = compose(kin.frame_placement(placed, loop.frame_b), C_b)
+            relative[loop.name] = compose(inverse(oMa), oMb)
+
+        energy = 0
+        for body in range(1, nbody):
+            params = load_params[:, body]
+            R, t = placed[body]
+            R0, t0 = nominal[body]
+            force, moment, torque = params[0:3], ca.reshape(params[3:12], 3, 3), params[12:15]
+            energy -= ca.dot(force, t - t0)
+            energy -= ca.dot(ca.vec(moment), ca.vec(R - R0))
+            energy -= ca.dot(torque, rotation_vee_antisym(ca.mtimes(R, R0.T)))
+
+        inequality = []
+        for j, (name, point) in enumerate(contacts):
+            R, p = relative[name]
+            r = ca.DM(point.point)
+            d = p + ca.mtimes(R, r) - r
+            selected = ca.vertcat(*[d[c] for c in point.components])
+            if point.shape == "norm":
+                inequality.append(ca.sumsqr(selected) / bounds[j] ** 2)
+            else:
+                inequality.append(selected / bounds[j])
+        equality = _loop_equalities(mechanism, relative)
+        kept = [equality[i] for i in equality_rows]
+        constraints = ca.vertcat(*inequality, *kept, ca.mtimes(gauge.T, z))
+        self.shapes = [point.shape for _, point in contacts]
+        self.contacts = contacts
+        self.n_equality = len(kept) + gauge_count
+        parameters = ca.vertcat(q, scale, ca.vec(load_params), ca.vec(rotation_b), bounds,
+                                ca.vec(gauge), sigma)
+        self.parameter_sizes = (model.nq, n, 15 * nbody, 9 * max(len(loops), 1), len(contacts),
+                                n * gauge_count, 1)
+        nlp = {"x": z, "p": parameters, "f": energy / sigma, "g": constraints}
+        options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
+                   "ipopt.tol": tol, "ipopt.acceptable_tol": tol, "ipopt.max_iter": 300,
+                   "ipopt.bound_relax_factor": 0.0, "ipopt.mu_strategy": "adaptive"}
+        self.solver = ca.nlpsol("clearance_exact", "ipopt", nlp, options)
+        lower = [-ca.inf if s == "norm" else -1.0 for s in self.shapes] + [0.0] * self.n_equality
+        upper = [1.0] * len(self.shapes) + [0.0] * self.n_equality
+        self.lower, self.upper = np.array(lower), np.array(upper)
+        outputs = [ca.horzcat(R, p) for R, p in placed] + [
+            ca.horzcat(*relative[name]) for name in mechanism.joints]
+        self.evaluate = ca.Function("exact_pose", [z, parameters], outputs)
+        jacobian_g = ca.jacobian(constraints, z)
+        self.derivatives = ca.Function("exact_kkt", [z, parameters],
+                                       [ca.gradient(energy, z), jacobian_g, energy])
+        self.closure = ca.Function("exact_closure", [z, parameters],
+                                   [ca.vertcat(*equality) if equality else ca.SX.zeros(1)])
+        self.build_time = time.perf_counter() - started
+
+    def parameters(self, configuration, scale, body_loads, linear_problem, sigma) -> np.ndarray:
+        """Numeric parameter vector for one solve."""
+        model = self.mechanism.model
+        loads = np.zeros((15, model.njoints))
+        for body, load in body_loads.items():
+            loads[0:3, body] = load.force
+            loads[3:12, body] = load.moment_matrix.ravel(order="F")
+            loads[12:15, body] = load.torque
+        rotations = np.zeros((9, max(len(self.mechanism.loop_joints), 1)))
+        for index, loop in enumerate(self.mechanism.loop_joints):
+            rotations[:, index] = configuration.loop_rotation_b[loop.name].ravel(order="F")
+        bounds = np.array([point.bound for _, point in self.contacts])
+        gauge = linear_problem.free_motions / scale[:, None]
+        if gauge.size:
+            gauge = gauge / np.linalg.norm(gauge, axis=0)
+        return np.concatenate([configuration.q, scale, loads.ravel(order="F"),
+                               rotations.ravel(order="F"), bounds, gauge.ravel(order="F"), [sigma]])
+
+
+def _loop_equalities(mechanism, relative) -> list:
+    """Rigid conditions of loop joints, in the order of the linear model's equality rows."""
+    rows = []
+    for loop in mechanism.loop_joints:
+        R, p = relative[loop.name]
+        rigid = loop.clearance.rigid_components
+        rotations = {c for c in rigid if c >= ALPHA}
+        for component in rigid:
+            if component < ALPHA:
+                rows.append(p[component])
+        if rotations == {BETA, GAMMA}:
+            rows.extend([-R[2, 0], R[1, 0]])
+        elif rotations == {ALPHA, BETA, GAMMA}:
+            vee = rotation_vee_antisym(R)
+            rows.extend([vee[0], vee[1], vee[2]])
+        elif rotations:
+            raise UnsupportedError(f"loop joint {loop.name!r}: rigid rotations {sorted(rotations)} "
+                                   "have no exact form; use beta+gamma or all three")
+        for point in loop.clearance.contacts:
+            if point.bound == 0.0:
+                r = ca.DM(point.point)
+                d = p + ca.mtimes(R, r) - r
+                rows.extend(d[c] for c in point.components)
+    return rows
+
+
+def independent_rows(equalities: np.ndarray, scale: np.ndarray) -> tuple[int, ...]:
+    """Indices of a maximal independent subset of the rows of E Z (redundant closure dropped)."""
+    kept: list[int] = []
+    for i in range(equalities.shape[0]):
+        trial = equalities[kept + [i]] * scale
+        if np.linalg.matrix_rank(trial, tol=1e-10 * max(1.0, np.abs(trial).max())) == len(kept) + 1:
+            kept.append(i)
+    return tuple(kept)
+
+
+def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> Equilibrium:
+    """Solve the exact model from the linear equilibrium ``linear``; residuals measured."""
+    from .solve import linear_setup
+
+    configuration, maps, body_loads, problem = linear_setup(mechanism, loads, q)
+    rows = independent_rows(problem.equalities, problem.scale)
+    key = ("exact", problem.signature(), problem.free_motions.shape[1], rows, tol)
+    cache = mechanism._solve_state
+    built_now = key not in cache
+    if built_now:
+        cache[key] = ExactProblem(mechanism, problem, rows, tol)
+    exact = cache[key]
+    sigma = problem.objective_scale or 1.0
+    params = exact.parameters(configuration, problem.scale, body_loads, problem, sigma)
+    x_linear = np.concatenate([_coordinates(linear, joint) for joint in mechanism.tree_joints])
+    z0 = x_linear / problem.scale
+    solve_started = time.perf_counter()
+    result = exact.solver(x0=z0, p=params, lbg=exact.lower, ubg=exact.upper)
+    stats = exact.solver.stats()
+    z = np.asarray(result["x"], dtype=float).ravel()
+    lam = np.asarray(result["lam_g"], dtype=float).ravel()
+    equilibrium = _assemble(mechanism, exact, problem, configuration, z, lam, params, sigma, stats)
+    equilibrium.build_time = exact.build_time if built_now else 0.0
+    equilibrium.solve_time = time.perf_counter() - solve_started
+    equilibrium.linear = linear
+    equilibrium.difference = _difference(equilibrium, linear)
+    if not equilibrium.ok:
+        raise SolverError("the exact solve did not reach a verified optimum",
+                          stats["return_status"], equilibrium.residuals)
+    return equilibrium
+
+
+def _coordinates(linear: Equilibrium, joint) -> np.ndarray:
+    return tree_joint_basis(joint).T @ linear.torsors[joint.name]
+
+
+def _assemble(mechanism, exact: ExactProblem, problem, configuration, z, lam, params, sigma, stats):
+    model = mechanism.model
+    outputs = [np.asarray(o) for o in exact.evaluate(z, params)]
+    placed = outputs[:model.njoints]
+    relatives = dict(zip(mechanism.joints, outputs[model.njoints:]))
+    torsors = {}
+    x = problem.scale * z
+    offset = 0
+    for joint in mechanism.tree_joints:
+        basis = tree_joint_basis(joint)
+        torsors[joint.name] = basis @ x[offset:offset + basis.shape[1]]
+        offset += basis.shape[1]
+    for loop in mechanism.loop_joints:
+        M = relatives[loop.name]
+        torsors[loop.name] = np.array(pin.log6(pin.SE3(M[:, :3], M[:, 3])).vector)
+    body_motions = {}
+    for i in range(1, model.njoints):
+        R, t = placed[i][:, :3], placed[i][:, 3]
+        R0, t0 = configuration.oMi[i].rotation, configuration.oMi[i].translation
+        body_motions[model.names[i]] = (t - t0, pin.log3(R @ R0.T))
+    contacts = []
+    n_inequality = len(exact.contacts)
+    lam = lam.copy()
+    for j, (name, point) in enumerate(exact.contacts):
+        M = relatives[name]
+        r = np.array(point.point)
+        d = (M[:, 3] + M[:, :3] @ r - r)[list(point.components)]
+        gap = point.bound - float(np.linalg.norm(d) if point.shape == "norm" else abs(d[0]))
+        if gap > 1e-7 * point.bound:
+            lam[j] = 0.0  # interior-point leftovers on free points: no force there
+        multiplier = abs(lam[j])
+        if point.shape == "norm":
+            local = -2.0 * sigma * multiplier * d / point.bound**2
+        else:
+            local = np.array([-sigma * multiplier * np.sign(lam[j]) / point.bound])
+        force = np.zeros(3)
+        force[list(point.components)] = local
+        active = gap <= 1e-7 * point.bound
+        contacts.append(Contact(name, point.name, gap, point.bound, force, bool(active)))
+    gradient, jacobian, energy = (np.asarray(v) for v in exact.derivatives(z, params))
+    gradient = gradient.ravel()
+    inequality_jacobian = jacobian[:n_inequality]
+    equality_jacobian = jacobian[n_inequality:]
+    residual = gradient / sigma + inequality_jacobian.T @ lam[:n_inequality]
+    if equality_jacobian.size:
+        nu = np.linalg.lstsq(equality_jacobian.T, -residual, rcond=None)[0]
+        residual = residual + equality_jacobian.T @ nu
+    reference = float(np.linalg.norm(gradient / sigma)) or 1.0
+    violation = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
+    residuals = {
+        "stationarity": float(np.max(np.abs(residual), initial=0.0)),
+        "statics": float(np.linalg.norm(residual) / reference),
+        "dual_infeasibility": float(max(0.0, -min(
+            [lam[j] if s == "norm" else abs(lam[j]) for j, s in enumerate(exact.shapes)],
+            default=0.0))),
+        "max_violation_m": violation,
+        "clearance_m": max((c.clearance for c in contacts), default=0.0),
+        "closure": float(np.max(np.abs(np.asarray(exact.closure(z, params))), initial=0.0)),
+    }
+    oMf_cache = {}
+
+    def frame_motion(frame: str):
+        frame_id = mechanism.model.getFrameId(frame)
+        if frame_id not in oMf_cache:
+            f = model.frames[frame_id]
+            body = f.parentJoint
+            oMb = pin.SE3(placed[body][:, :3], placed[body][:, 3]) * f.placement
+            oMf_cache[frame_id] = oMb
+        nominal = configuration.oMf[frame_id]
+        moved = oMf_cache[frame_id]
+        return moved.translation - nominal.translation, pin.log3(moved.rotation @ nominal.rotation.T)
+
+    return Equilibrium(
+        formulation="exact", torsors=torsors, body_motions=body_motions, contacts=tuple(contacts),
+        energy=float(energy.ravel()[0]), status="optimal", solver_status=stats["return_status"],
+        iterations=int(stats.get("iter_count", 0)), residuals=residuals,
+        free_motions=problem.free_descriptions, build_time=0.0, solve_time=0.0,
+        _frame_motion=frame_motion,
+    )
+
+
+def _difference(exact: Equilibrium, linear: Equilibrium) -> dict[str, float]:
+    translation = max(np.max(np.abs(exact.torsors[k][:3] - linear.torsors[k][:3]))
+                      for k in exact.torsors)
+    rotation = max(np.max(np.abs(exact.torsors[k][3:] - linear.torsors[k][3:]))
+                   for k in exact.torsors)
+    return {"translation_m": float(translation), "rotation_rad": float(rotation)}
+
+
+__all__ = ["ExactProblem", "solve_exact_model", "independent_rows", "null_space"]
