@@ -24,13 +24,14 @@ class Configuration:
         q: joint configuration (nq,).
         oMi: world placement of every joint frame (copies).
         oMf: world placement of every frame (copies).
-        loop_rotation_b: per loop joint, rotation of its clearance frame in ``frame_b`` (3, 3).
+        bMc: per loop joint, placement (pin.SE3) of its child-side clearance frame in ``frame_b``,
+            chosen so that it coincides with the parent-side clearance frame at this configuration.
     """
 
     q: np.ndarray
     oMi: tuple
     oMf: tuple
-    loop_rotation_b: dict
+    bMc: dict
 
 
 class Mechanism:
@@ -70,6 +71,7 @@ class Mechanism:
         self.source = source
         self.name = name or model.name
         self.collision_model = collision_model
+        self.dimensions: tuple = ()
         self.link_frames = {
             f.name: i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY
         }
@@ -81,29 +83,31 @@ class Mechanism:
 
     # -- configuration ---------------------------------------------------------------------
     def configure(self, q: np.ndarray | None = None) -> Configuration:
-        """Place the mechanism at ``q`` (default: nominal) and check that every loop closes."""
+        """Place the mechanism at ``q`` (default: nominal), closing every loop.
+
+        The driven joints keep their values in ``q``; the passive ones are adjusted so that the
+        frames of every loop joint coincide (:func:`clearance_pin.kinematics.closure.close_loops`).
+        """
+        from .kinematics.closure import close_loops, closure_residual
+
         q = self.q_nominal if q is None else np.asarray(q, dtype=float)
         if q.shape != (self.model.nq,) or not np.all(np.isfinite(q)):
             raise ClearancePinError(
                 f"configuration must be {self.model.nq} finite numbers, got shape {q.shape}"
             )
-        pin.forwardKinematics(self.model, self.data, q)
-        pin.updateFramePlacements(self.model, self.data)
+        pin.framesForwardKinematics(self.model, self.data, q)
+        if self.loop_joints:
+            residual, _ = closure_residual(self, self.data)
+            if np.max(np.abs(residual), initial=0.0) > 1e-12 * self.length_scale():
+                q = close_loops(self, q)
+                pin.framesForwardKinematics(self.model, self.data, q)
         oMi = tuple(m.copy() for m in self.data.oMi)
         oMf = tuple(m.copy() for m in self.data.oMf)
-        rotation_b = {}
+        bMc = {}
         for loop in self.loop_joints:
             oMc = oMf[loop.frame_a] * pin.SE3(loop.rotation, np.zeros(3))
-            gap = oMf[loop.frame_b].translation - oMc.translation
-            if np.linalg.norm(gap) > 1e-9 * max(1.0, self.length_scale()):
-                raise ModelError(
-                    self.source, f"<loop_joint name='{loop.name}'>",
-                    f"frames {self.model.frames[loop.frame_a].name!r} and "
-                    f"{self.model.frames[loop.frame_b].name!r} must coincide at the nominal "
-                    f"configuration; they are {np.linalg.norm(gap):.3e} m apart",
-                )
-            rotation_b[loop.name] = oMf[loop.frame_b].rotation.T @ oMc.rotation
-        return Configuration(q.copy(), oMi, oMf, rotation_b)
+            bMc[loop.name] = oMf[loop.frame_b].inverse() * oMc
+        return Configuration(q.copy(), oMi, oMf, bMc)
 
     def length_scale(self) -> float:
         """Characteristic length [m]: the largest distance of a joint origin from the root."""

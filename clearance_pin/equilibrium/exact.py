@@ -47,7 +47,7 @@ class ExactProblem:
         nbody = model.njoints
         load_params = ca.SX.sym("loads", 15, nbody)
         loops = mechanism.loop_joints
-        rotation_b = ca.SX.sym("rotation_b", 9, max(len(loops), 1))
+        loop_b = ca.SX.sym("loop_b", 12, max(len(loops), 1))
         contacts = [(name, point) for name, joint in mechanism.joints.items()
                     for point in joint.clearance.contacts if point.bound > 0.0]
         bounds = ca.SX.sym("bounds", len(contacts))
@@ -69,7 +69,7 @@ class ExactProblem:
         placed = kin.joint_placements(q, deltas)
         for index, loop in enumerate(loops):
             C_a = (ca.DM(loop.rotation), ca.DM.zeros(3))
-            C_b = (ca.reshape(rotation_b[:, index], 3, 3), ca.DM.zeros(3))
+            C_b = (ca.reshape(loop_b[0:9, index], 3, 3), loop_b[9:12, index])
             oMa = compose(kin.frame_placement(placed, loop.frame_a), C_a)
             oMb = compose(kin.frame_placement(placed, loop.frame_b), C_b)
             relative[loop.name] = compose(inverse(oMa), oMb)
@@ -100,9 +100,9 @@ class ExactProblem:
         self.shapes = [point.shape for _, point in contacts]
         self.contacts = contacts
         self.n_equality = len(kept) + gauge_count
-        parameters = ca.vertcat(q, scale, ca.vec(load_params), ca.vec(rotation_b), bounds,
+        parameters = ca.vertcat(q, scale, ca.vec(load_params), ca.vec(loop_b), bounds,
                                 ca.vec(gauge), sigma)
-        self.parameter_sizes = (model.nq, n, 15 * nbody, 9 * max(len(loops), 1), len(contacts),
+        self.parameter_sizes = (model.nq, n, 15 * nbody, 12 * max(len(loops), 1), len(contacts),
                                 n * gauge_count, 1)
         nlp = {"x": z, "p": parameters, "f": energy / sigma, "g": constraints}
         options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
@@ -130,9 +130,11 @@ class ExactProblem:
             loads[0:3, body] = load.force
             loads[3:12, body] = load.moment_matrix.ravel(order="F")
             loads[12:15, body] = load.torque
-        rotations = np.zeros((9, max(len(self.mechanism.loop_joints), 1)))
+        rotations = np.zeros((12, max(len(self.mechanism.loop_joints), 1)))
         for index, loop in enumerate(self.mechanism.loop_joints):
-            rotations[:, index] = configuration.loop_rotation_b[loop.name].ravel(order="F")
+            bMc = configuration.bMc[loop.name]
+            rotations[0:9, index] = bMc.rotation.ravel(order="F")
+            rotations[9:12, index] = bMc.translation
         bounds = np.array([point.bound for _, point in self.contacts])
         gauge = linear_problem.free_motions / scale[:, None]
         if gauge.size:

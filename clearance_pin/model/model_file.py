@@ -62,8 +62,15 @@ def loads(text: str, source: str = "<string>", mesh_dir: Path | None = None):
     tree_joints, q = reader.tree_joints(model, block)
     loop_joints = reader.loop_joints(model, block)
     forces, gravity = reader.loads(model, block)
-    return Mechanism(model, tree_joints, loop_joints, q, forces, gravity, source=source,
-                     name=reader.root.get("name", ""), collision_model=collision)
+    dimensions = ()
+    if block.find("dimension") is not None:
+        from ..tolerance.dimensions import parse_dimensions
+
+        dimensions = parse_dimensions(source, block, model)
+    mechanism = Mechanism(model, tree_joints, loop_joints, q, forces, gravity, source=source,
+                          name=reader.root.get("name", ""), collision_model=collision)
+    mechanism.dimensions = dimensions
+    return mechanism
 
 
 class _Reader:
@@ -117,7 +124,7 @@ class _Reader:
         if len(blocks) > 1:
             raise ModelError(self.source, f"<{BLOCK}>", "only one block is allowed")
         block = blocks[0] if blocks else ET.Element(BLOCK)
-        allowed = {"joint", "loop_joint", "force", "torque", "gravity"}
+        allowed = {"joint", "loop_joint", "force", "torque", "gravity", "dimension"}
         for child in block:
             if child.tag not in allowed:
                 raise ModelError(self.source, f"<{child.tag}>",
