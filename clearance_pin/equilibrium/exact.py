@@ -292,6 +292,9 @@ def _assemble(mechanism, exact: ExactProblem, problem, configuration, z, lam, pa
         energy=float(energy.ravel()[0]), status="optimal", solver_status=stats["return_status"],
         iterations=int(stats.get("iter_count", 0)), residuals=residuals,
         free_motions=problem.free_descriptions, build_time=0.0, solve_time=0.0,
+        body_placements=tuple([pin.SE3.Identity()] + [
+            pin.SE3(placed[i][:, :3], placed[i][:, 3]) for i in range(1, model.njoints)]),
+        mechanism=mechanism, configuration=configuration,
         _frame_motion=frame_motion,
     )
 

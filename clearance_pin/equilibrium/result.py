@@ -71,6 +71,11 @@ class Equilibrium:
         difference: when both formulations ran, max |exact - linear| over the torsor components,
             ``{"translation_m": float, "rotation_rad": float}``.
         linear: the small-displacement equilibrium that seeded an exact solve, if any.
+        body_placements: world placement (pin.SE3) of every Pinocchio joint frame at the solved
+            pose, index = joint id (0 = ground). Exact: the finite motion; linear: the rigid
+            motion exp(xi_b) oM_b0 of each body's small twist.
+        mechanism: the solved :class:`~clearance_pin.mechanism.Mechanism`.
+        configuration: its nominal :class:`~clearance_pin.mechanism.Configuration`.
     """
 
     formulation: str
@@ -88,8 +93,10 @@ class Equilibrium:
     polished: bool = False
     difference: dict[str, float] | None = None
     linear: Equilibrium | None = None
+    body_placements: tuple = ()
+    mechanism: object = field(default=None, repr=False)
+    configuration: object = field(default=None, repr=False)
     _frame_motion: object = field(default=None, repr=False)
-    _checker: object = field(default=None, repr=False)
 
     @property
     def ok(self) -> bool:
@@ -120,9 +127,9 @@ class Equilibrium:
 
     def check(self, **options):
         """Measure the solved pose with coal (see :mod:`clearance_pin.check`)."""
-        if self._checker is None:
-            raise ClearancePinError("this equilibrium has no geometry to check")
-        return self._checker(self, **options)
+        from ..check import check_equilibrium
+
+        return check_equilibrium(self, **options)
 
     def to_dict(self, length: float = 1.0, unit: str = "m") -> dict:
         """JSON-ready dict; lengths multiplied by ``length`` (1e3 for mm), angles in rad."""

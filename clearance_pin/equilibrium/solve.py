@@ -38,7 +38,7 @@ def solve_linear(mechanism, loads, q=None, tol: float = 1e-12) -> Equilibrium:
     setup_time = time.perf_counter() - started
     if problem.objective_scale == 0.0 or not problem.contacts or problem.size == 0:
         y = np.zeros(problem.size)
-        return _assemble(mechanism, maps, problem, y, np.zeros(len(problem.contacts)),
+        return _assemble(mechanism, configuration, maps, problem, y, np.zeros(len(problem.contacts)),
                          np.ones(len(problem.contacts)), "indeterminate",
                          "no load works on any admissible motion", 0, False, 0.0,
                          time.perf_counter() - started, {})
@@ -52,7 +52,7 @@ def solve_linear(mechanism, loads, q=None, tol: float = 1e-12) -> Equilibrium:
         "dual_infeasibility": solution.dual_infeasibility,
     }
     equilibrium = _assemble(
-        mechanism, maps, problem, solution.y, solution.multipliers, solution.signs, "optimal",
+        mechanism, configuration, maps, problem, solution.y, solution.multipliers, solution.signs, "optimal",
         solution.status, solution.iterations, solution.polished, build_time,
         setup_time + solution.solve_time, residuals,
     )
@@ -62,7 +62,7 @@ def solve_linear(mechanism, loads, q=None, tol: float = 1e-12) -> Equilibrium:
     return equilibrium
 
 
-def _assemble(mechanism, maps: SmallDisplacementMaps, problem: ReducedProblem, y, multipliers,
+def _assemble(mechanism, configuration, maps: SmallDisplacementMaps, problem: ReducedProblem, y, multipliers,
               signs, status, solver_status, iterations, polished, build_time, solve_time,
               residuals) -> Equilibrium:
     x = problem.x_from_y(y)
@@ -80,6 +80,8 @@ def _assemble(mechanism, maps: SmallDisplacementMaps, problem: ReducedProblem, y
     residuals["max_violation_m"] = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
     residuals["clearance_m"] = max((c.clearance for c in contacts), default=0.0)
     oMf = [m.copy() for m in mechanism.data.oMf]
+    placements = tuple([oMi[0]] + [pin.exp6(pin.Motion(twists[i])) * oMi[i]
+                                   for i in range(1, model.njoints)])
 
     def frame_motion(frame: str):
         frame_id = _frame_id(mechanism, frame)
@@ -100,6 +102,9 @@ def _assemble(mechanism, maps: SmallDisplacementMaps, problem: ReducedProblem, y
         build_time=build_time,
         solve_time=solve_time,
         polished=polished,
+        body_placements=placements,
+        mechanism=mechanism,
+        configuration=configuration,
         _frame_motion=frame_motion,
     )
 

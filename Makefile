@@ -1,0 +1,24 @@
+# Two entry points for a fresh machine (Python 3.11+ and PyPI only); each makes its own .venv.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+
+.PHONY: demo test validate benchmark clean
+
+$(BIN)/clearance-pin: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[test,plot,peers]"
+	touch $@
+
+demo: $(BIN)/clearance-pin
+	$(BIN)/clearance-pin solve models/younes_sphere_cylinder.urdf --exact
+
+test: $(BIN)/clearance-pin
+	$(BIN)/python -m pytest
+
+validate: $(BIN)/clearance-pin
+	$(BIN)/python validation/younes2013.py --json out/younes2013.json
+
+clean:
+	rm -rf $(VENV) out
