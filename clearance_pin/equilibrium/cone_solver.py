@@ -103,9 +103,23 @@ class ConeSolver:
         self._upper = np.array(upper, dtype=float)
         self.build_time = time.perf_counter() - started
 
-    def solve(self, problem: ReducedProblem, y0: np.ndarray | None = None) -> ConeSolution:
-        """Solve with IPOPT from ``y0`` (default: the nominal position y = 0), then polish."""
+    def solve(self, problem: ReducedProblem, y0: np.ndarray | None = None,
+              warm: ConeSolution | None = None) -> ConeSolution:
+        """Solve the problem; IPOPT from ``y0`` (default: the nominal y = 0), then polish.
+
+        With ``warm`` (a previous solution of a problem with the same signature), first try the
+        active-set Newton step from its contact set and multipliers; it is accepted only when its
+        multipliers are >= 0, every contact is feasible and the KKT residual is at round-off.
+        Otherwise IPOPT runs as usual.
+        """
         started = time.perf_counter()
+        if warm is not None and warm.y.shape == (problem.size,):
+            seed = ConeSolution(warm.y, warm.multipliers, warm.signs, "warm active-set Newton",
+                                0, False)
+            candidate = polish(problem, seed)
+            if candidate is not None:
+                candidate.solve_time = time.perf_counter() - started
+                return candidate
         parameters = np.concatenate(
             [problem.objective] + [m.ravel(order="F") for m in _stacked(problem)]
         )

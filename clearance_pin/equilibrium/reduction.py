@@ -96,60 +96,85 @@ class ReducedProblem:
         return (self.size, tuple((c.contact.shape, c.rows.shape[0]) for c in self.contacts))
 
 
-def reduce(
-    maps: SmallDisplacementMaps,
-    joints: dict,
-    gradient: np.ndarray,
-    length_scale: float,
-) -> ReducedProblem:
-    """Assemble and reduce the small-displacement problem.
+@dataclass(frozen=True)
+class ReducedGeometry:
+    """The load-independent part of the reduction at one configuration (cached per configuration).
+
+    Attributes: see :class:`ReducedProblem`; ``free_scaled`` is K in the scaled unknowns z.
+    """
+
+    scale: np.ndarray
+    basis: np.ndarray
+    contacts: tuple[ContactConstraint, ...]
+    equalities: np.ndarray
+    free_motions: np.ndarray
+    free_scaled: np.ndarray
+    free_descriptions: tuple[str, ...]
+    contact_matrices: tuple[np.ndarray, ...]
+
+
+def reduce_geometry(maps: SmallDisplacementMaps, joints: dict, length_scale: float) -> ReducedGeometry:
+    """Steps 1-3 of the reduction, which do not depend on the load.
 
     Args:
         maps: linear maps at the nominal configuration.
         joints: joint name -> TreeJoint or LoopJoint (tree joints first, in tree order).
-        gradient: g, (n,).
         length_scale: characteristic length of the mechanism L_ref [m], for rotation scales.
-
-    Raises:
-        UnboundedLoadError: the load works along a motion that nothing blocks.
     """
     n = maps.size
     contacts, equality_rows = _constraints(maps, joints)
     scale = _variable_scales(maps, joints, contacts, length_scale)
     equalities = np.array(equality_rows).reshape(-1, n)
-
     closure_basis = null_space(equalities * scale) if equalities.size else np.eye(n)
     if contacts:
         contact_rows = np.vstack([c.rows for c in contacts]) * scale
-        seen = contact_rows @ closure_basis
-        free_w = null_space(seen)
+        free_w = null_space(contact_rows @ closure_basis)
     else:
         free_w = np.eye(closure_basis.shape[1])
     free_z = closure_basis @ free_w
-    scaled_gradient = scale * gradient
-    reference = float(np.linalg.norm(scaled_gradient))
-    along_free = free_z.T @ scaled_gradient
-    if reference > 0.0 and np.linalg.norm(along_free) > UNBOUNDED_FRACTION * reference:
-        motion = scale * (free_z @ along_free)
-        raise UnboundedLoadError(
-            describe_motion(maps, joints, motion, length_scale),
-            float(np.linalg.norm(along_free) / reference),
-        )
-    bounded_w = _complement(free_w, closure_basis.shape[1])
-    basis = closure_basis @ bounded_w
-    reduced_gradient = basis.T @ scaled_gradient
-    sigma = float(np.linalg.norm(reduced_gradient))
-    objective = reduced_gradient / sigma if sigma > 0.0 else reduced_gradient
+    basis = closure_basis @ _complement(free_w, closure_basis.shape[1])
     matrices = tuple((c.rows * scale) @ basis / c.contact.bound for c in contacts)
     free_x = scale[:, None] * free_z
     descriptions = tuple(
         "; ".join(describe_motion(maps, joints, free_x[:, i], length_scale))
         for i in range(free_x.shape[1])
     )
+    return ReducedGeometry(scale, basis, tuple(contacts), equalities, free_x, free_z,
+                           descriptions, matrices)
+
+
+def with_load(geometry: ReducedGeometry, gradient: np.ndarray, maps: SmallDisplacementMaps,
+              joints: dict, length_scale: float) -> ReducedProblem:
+    """The reduced problem for one load: objective f and the check for unbounded loads.
+
+    Raises:
+        UnboundedLoadError: the load works along a motion that nothing blocks.
+    """
+    scale = geometry.scale
+    scaled_gradient = scale * gradient
+    reference = float(np.linalg.norm(scaled_gradient))
+    along_free = geometry.free_scaled.T @ scaled_gradient
+    if reference > 0.0 and np.linalg.norm(along_free) > UNBOUNDED_FRACTION * reference:
+        motion = scale * (geometry.free_scaled @ along_free)
+        raise UnboundedLoadError(
+            describe_motion(maps, joints, motion, length_scale),
+            float(np.linalg.norm(along_free) / reference),
+        )
+    reduced_gradient = geometry.basis.T @ scaled_gradient
+    sigma = float(np.linalg.norm(reduced_gradient))
+    objective = reduced_gradient / sigma if sigma > 0.0 else reduced_gradient
     return ReducedProblem(
-        gradient, scale, basis, tuple(contacts), equalities, free_x, descriptions,
-        objective, sigma, matrices,
+        gradient, scale, geometry.basis, geometry.contacts, geometry.equalities,
+        geometry.free_motions, geometry.free_descriptions, objective, sigma,
+        geometry.contact_matrices,
     )
+
+
+def reduce(maps: SmallDisplacementMaps, joints: dict, gradient: np.ndarray,
+           length_scale: float) -> ReducedProblem:
+    """Assemble and reduce the small-displacement problem for one load (both stages)."""
+    geometry = reduce_geometry(maps, joints, length_scale)
+    return with_load(geometry, gradient, maps, joints, length_scale)
 
 
 def _constraints(maps: SmallDisplacementMaps, joints: dict):

@@ -14,7 +14,7 @@ import pinocchio as pin
 from ..errors import SolverError
 from .cone_solver import constraint_values, solver_for
 from .load_terms import gather_body_loads, load_gradient
-from .reduction import ReducedProblem, reduce
+from .reduction import ReducedProblem, reduce_geometry, with_load
 from .result import Contact, Equilibrium
 from .small_displacement import SmallDisplacementMaps, build_maps
 
@@ -22,12 +22,27 @@ ACTIVE_RELATIVE_GAP = 1e-7
 
 
 def linear_setup(mechanism, loads, q):
-    """Configuration, maps, per-body loads and reduced problem for one solve."""
-    configuration = mechanism.configure(q)
-    maps = build_maps(mechanism.model, mechanism.data, mechanism.tree_joints, mechanism.loop_joints)
+    """Configuration, maps, per-body loads and reduced problem for one solve.
+
+    Everything but the load terms is cached per nominal configuration, so a new load costs a
+    matrix-vector product and the unbounded-load test.
+    """
+    key = ("geometry", None if q is None else np.asarray(q, dtype=float).tobytes())
+    cached = mechanism._solve_state.get(key)
+    if cached is None:
+        configuration = mechanism.configure(q)
+        maps = build_maps(mechanism.model, mechanism.data, mechanism.tree_joints,
+                          mechanism.loop_joints)
+        geometry = reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
+        if len(mechanism._solve_state) > 64:
+            mechanism._solve_state = {k: v for k, v in mechanism._solve_state.items()
+                                      if k[0] != "geometry"}
+        cached = mechanism._solve_state[key] = (configuration, maps, geometry)
+    configuration, maps, geometry = cached
+    pin.framesForwardKinematics(mechanism.model, mechanism.data, configuration.q)
     body_loads = gather_body_loads(mechanism.model, mechanism.data, loads, mechanism.link_frames)
     gradient = load_gradient(body_loads, maps.body_twist)
-    problem = reduce(maps, mechanism.joints, gradient, mechanism.length_scale())
+    problem = with_load(geometry, gradient, maps, mechanism.joints, mechanism.length_scale())
     return configuration, maps, body_loads, problem
 
 
@@ -43,7 +58,9 @@ def solve_linear(mechanism, loads, q=None, tol: float = 1e-12) -> Equilibrium:
                          "no load works on any admissible motion", 0, False, 0.0,
                          time.perf_counter() - started, {})
     solver, built_now = solver_for(problem, tol)
-    solution = solver.solve(problem)
+    warm_key = ("warm", problem.signature())
+    solution = solver.solve(problem, warm=mechanism._solve_state.get(warm_key))
+    mechanism._solve_state[warm_key] = solution
     build_time = solver.build_time if built_now else 0.0
     residuals = {
         "stationarity": solution.stationarity,
@@ -69,7 +86,7 @@ def _assemble(mechanism, configuration, maps: SmallDisplacementMaps, problem: Re
     torsors = {name: maps.joint_torsor[name] @ x for name in mechanism.joints}
     model = mechanism.model
     twists = [maps.body_twist[i] @ x for i in range(model.njoints)]
-    oMi = [m.copy() for m in mechanism.data.oMi]
+    oMi = configuration.oMi
     body_motions = {
         model.names[i]: (twists[i][:3] + np.cross(twists[i][3:], oMi[i].translation), twists[i][3:])
         for i in range(1, model.njoints)
@@ -79,7 +96,7 @@ def _assemble(mechanism, configuration, maps: SmallDisplacementMaps, problem: Re
     residuals["statics"] = statics_residual(problem, x, contacts)
     residuals["max_violation_m"] = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
     residuals["clearance_m"] = max((c.clearance for c in contacts), default=0.0)
-    oMf = [m.copy() for m in mechanism.data.oMf]
+    oMf = configuration.oMf
     placements = tuple([oMi[0]] + [pin.exp6(pin.Motion(twists[i])) * oMi[i]
                                    for i in range(1, model.njoints)])
 
