@@ -141,7 +141,8 @@ class Mechanism:
         return chosen
 
     # -- solving --------------------------------------------------------------------------
-    def solve(self, loads=None, exact: bool = False, q=None, gravity=None, tol: float = 1e-12):
+    def solve(self, loads=None, exact: bool = False, q=None, gravity=None, tol: float = 1e-12,
+              backend: str = "auto"):
         """Quasi-static equilibrium of the parts in their joint clearances.
 
         Args:
@@ -152,6 +153,9 @@ class Mechanism:
             gravity: True / a :class:`Gravity` to add gravity, False to switch it off,
                 None for the model's setting.
             tol: optimiser tolerance (dimensionless, on clearance-scaled unknowns).
+            backend: ``"auto"`` (Clarabel when installed, else IPOPT), ``"clarabel"`` or
+                ``"ipopt"`` for the small-displacement cone programme; the answer is polished and
+                verified the same way whichever finds it. The exact model always uses IPOPT.
 
         Returns:
             :class:`~clearance_pin.equilibrium.result.Equilibrium`.
@@ -160,10 +164,21 @@ class Mechanism:
 
         gravity_load = False if gravity is False else gravity
         resolved = self.resolve_loads(loads, gravity_load)
-        linear = solve_linear(self, resolved, q, tol)
+        linear = solve_linear(self, resolved, q, tol, backend)
         if not exact:
             return linear
         return solve_exact(self, resolved, q, linear, tol)
+
+    def __getstate__(self) -> dict:
+        """Pickle without the built solvers (CasADi objects), which are rebuilt on demand."""
+        state = dict(self.__dict__)
+        state["_solve_state"] = {}
+        state.pop("data", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.data = self.model.createData()
 
     def joint(self, name: str):
         """The tree or loop joint called ``name``."""

@@ -1,18 +1,21 @@
-r"""Solve the reduced cone programme: IPOPT through CasADi, then an active-set Newton polish.
+r"""Solve the reduced cone programme: a backend finds the optimum, a verified Newton step polishes it.
 
 Problem (see :mod:`.reduction`), dimensionless:
 
-.. math::  \min_y f^T y \quad \text{s.t.} \quad \phi_j(y) \le 0,\qquad
-           \phi_j = \|P_j y\|^2 - 1 \ (\text{ball, disc}),\quad \phi_j = |P_j y| - 1 \ (\text{slab})
+.. math::  \min_y f^T y \quad \text{s.t.} \quad \|P_j y\| \le 1 \ (\text{ball, disc}),\quad
+           |p_j^T y| \le 1 \ (\text{slab})
 
-IPOPT (interior point) finds the optimum and the contact set; the polish then solves the KKT
-system of the active contacts,
+Paths, tried in this order:
 
-.. math::  f + \sum_{j \in A} \lambda_j \nabla\phi_j(y) = 0, \qquad \phi_j(y) = 0 \ (j \in A)
+1. *warm*: a previous solution of the same structure gives the contact set and multipliers; the
+   active-set Newton step of :mod:`.kkt` solves the new KKT system (no optimiser call);
+2. *backend*: Clarabel (interior point for cones, when installed: ``pip install clearance_pin[fast]``)
+   or IPOPT through CasADi (always available), from the nominal position;
+3. *polish*: the same Newton step from the backend's answer, to machine precision.
 
-by Newton's method to machine precision, and is accepted only if every multiplier is >= 0 and every
-contact is feasible. The built IPOPT problem takes f and the P_j as parameters, so a new load,
-clearance or nominal configuration re-uses it (one build per problem signature).
+Every answer is verified (multipliers >= 0, contacts feasible, KKT residual at round-off) before it
+is accepted; an unverified backend answer is returned with its measured residuals, and the caller
+decides (``solve_linear`` raises :class:`~clearance_pin.errors.SolverError`).
 """
 
 from __future__ import annotations
@@ -23,10 +26,10 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from .kkt import ACTIVE_GAP, active_set_solve, residuals
 from .reduction import ReducedProblem
 
-ACTIVE_GAP = 1e-6
-POLISH_TOL = 1e-14
+BACKENDS = ("auto", "clarabel", "ipopt")
 
 
 @dataclass
@@ -35,12 +38,12 @@ class ConeSolution:
 
     Attributes:
         y: reduced unknowns, (r,).
-        multipliers: lambda_j >= 0 per contact (scaled by the objective scale).
+        multipliers: lambda_j >= 0 per contact (squared-norm form, scaled by the objective scale).
         signs: +1/-1 for the side of a slab contact in touch (1 for balls and discs).
-        status: IPOPT's return status (or ``"newton"`` when the warm active-set step sufficed).
-        iterations: IPOPT iterations (0 for the Newton path).
-        polished: the active-set Newton polish was accepted.
-        stationarity, feasibility, complementarity, dual_infeasibility: max-norm residuals.
+        status: the path and the backend's status (``"warm Newton"``, ``"ipopt: Solve_Succeeded"``).
+        iterations: backend iterations (0 for the warm path).
+        polished: the Newton step was accepted (the answer is verified at round-off).
+        residuals: stationarity, feasibility, complementarity, dual_infeasibility.
         solve_time: wall time [s] of this solve.
     """
 
@@ -50,202 +53,160 @@ class ConeSolution:
     status: str
     iterations: int
     polished: bool
-    stationarity: float = 0.0
-    feasibility: float = 0.0
-    complementarity: float = 0.0
-    dual_infeasibility: float = 0.0
+    residuals: dict = field(default_factory=dict)
     solve_time: float = 0.0
-    extra: dict = field(default_factory=dict)
 
     @property
     def kkt_residual(self) -> float:
-        """Largest of the four residuals."""
-        return max(self.stationarity, self.feasibility, self.complementarity, self.dual_infeasibility)
+        """Largest measured residual."""
+        return max(self.residuals.values(), default=0.0)
 
 
-class ConeSolver:
-    """IPOPT solver of reduced problems with one signature (built once, solved many times)."""
+def clarabel_available() -> bool:
+    """Whether the Clarabel backend can be imported."""
+    try:
+        import clarabel  # noqa: F401
+        import scipy.sparse  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+class IpoptBackend:
+    """IPOPT on reduced problems with one signature (built once; f and P_j are parameters)."""
+
+    name = "ipopt"
 
     def __init__(self, signature: tuple, tol: float = 1e-12, max_iter: int = 200):
-        self.signature = signature
-        size, shapes = signature
         started = time.perf_counter()
+        size, shapes = signature
         y = ca.SX.sym("y", size)
         f = ca.SX.sym("f", size)
         total_rows = sum(k for _, k in shapes)
         p_matrix = ca.SX.sym("P", total_rows, size)
-        constraints, lower, upper = [], [], []
+        constraints, lower = [], []
         row = 0
         for shape, k in shapes:
             image = ca.mtimes(p_matrix[row:row + k, :], y)
             row += k
-            if shape == "norm":
-                constraints.append(ca.sumsqr(image))
-                lower.append(-ca.inf)
-            else:
-                constraints.append(image)
-                lower.append(-1.0)
-            upper.append(1.0)
+            constraints.append(ca.sumsqr(image) if shape == "norm" else image)
+            lower.append(-ca.inf if shape == "norm" else -1.0)
         nlp = {"x": y, "p": ca.vertcat(f, ca.vec(p_matrix)), "f": ca.dot(f, y),
                "g": ca.vertcat(*constraints) if constraints else ca.SX(0, 1)}
         options = {
-            "print_time": False,
-            "ipopt.print_level": 0,
-            "ipopt.sb": "yes",
-            "ipopt.tol": tol,
-            "ipopt.acceptable_tol": tol,
-            "ipopt.bound_relax_factor": 0.0,
-            "ipopt.max_iter": max_iter,
-            "ipopt.mu_strategy": "adaptive",
+            "print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
+            "ipopt.tol": tol, "ipopt.acceptable_tol": tol, "ipopt.bound_relax_factor": 0.0,
+            "ipopt.max_iter": max_iter, "ipopt.mu_strategy": "adaptive",
         }
         self._solver = ca.nlpsol("clearance_cone", "ipopt", nlp, options)
         self._lower = np.array(lower, dtype=float)
-        self._upper = np.array(upper, dtype=float)
+        self._upper = np.ones(len(shapes))
         self.build_time = time.perf_counter() - started
 
-    def solve(self, problem: ReducedProblem, y0: np.ndarray | None = None,
-              warm: ConeSolution | None = None) -> ConeSolution:
-        """Solve the problem; IPOPT from ``y0`` (default: the nominal y = 0), then polish.
-
-        With ``warm`` (a previous solution of a problem with the same signature), first try the
-        active-set Newton step from its contact set and multipliers; it is accepted only when its
-        multipliers are >= 0, every contact is feasible and the KKT residual is at round-off.
-        Otherwise IPOPT runs as usual.
-        """
-        started = time.perf_counter()
-        if warm is not None and warm.y.shape == (problem.size,):
-            seed = ConeSolution(warm.y, warm.multipliers, warm.signs, "warm active-set Newton",
-                                0, False)
-            candidate = polish(problem, seed)
-            if candidate is not None:
-                candidate.solve_time = time.perf_counter() - started
-                return candidate
-        parameters = np.concatenate(
-            [problem.objective] + [m.ravel(order="F") for m in _stacked(problem)]
-        )
-        start = np.zeros(problem.size) if y0 is None else np.asarray(y0, dtype=float)
-        result = self._solver(x0=start, p=parameters, lbg=self._lower, ubg=self._upper)
+    def run(self, problem: ReducedProblem):
+        """(y, multipliers, status, iterations) from the nominal start y = 0."""
+        parameters = np.concatenate([problem.objective, problem.stack.matrix.ravel(order="F")])
+        result = self._solver(x0=np.zeros(problem.size), p=parameters, lbg=self._lower,
+                              ubg=self._upper)
         stats = self._solver.stats()
         y = np.asarray(result["x"], dtype=float).ravel()
-        lam_g = np.asarray(result["lam_g"], dtype=float).ravel()
-        signs = np.where(lam_g < 0.0, -1.0, 1.0)
-        shapes = [c.contact.shape for c in problem.contacts]
-        for j, shape in enumerate(shapes):
-            if shape == "abs" and abs(lam_g[j]) == 0.0:
-                signs[j] = 1.0 if (problem.contact_matrices[j] @ y)[0] >= 0.0 else -1.0
-        solution = ConeSolution(
-            y, np.abs(lam_g), signs, stats["return_status"], int(stats.get("iter_count", 0)), False
-        )
-        polished = polish(problem, solution)
-        final = polished if polished is not None else solution
-        measure(problem, final)
-        final.solve_time = time.perf_counter() - started
-        return final
+        lam = np.abs(np.asarray(result["lam_g"], dtype=float).ravel())
+        return y, lam, f"ipopt: {stats['return_status']}", int(stats.get("iter_count", 0))
 
 
-def _stacked(problem: ReducedProblem) -> list[np.ndarray]:
-    if not problem.contact_matrices:
-        return [np.zeros((0, problem.size))]
-    return [np.vstack(problem.contact_matrices)]
+class ClarabelBackend:
+    """Clarabel on the second-order-cone form: (1, P_j y) in SOC, 1 -/+ p_j^T y >= 0."""
+
+    name = "clarabel"
+
+    def __init__(self, signature: tuple, tol: float = 1e-12):
+        import clarabel
+        import scipy.sparse as sparse
+
+        self._clarabel, self._sparse = clarabel, sparse
+        size, shapes = signature
+        self.build_time = 0.0
+        settings = clarabel.DefaultSettings()
+        settings.verbose = False
+        settings.tol_gap_abs = settings.tol_gap_rel = tol
+        settings.tol_feas = settings.tol_ktratio = tol
+        settings.max_iter = 100
+        self._settings = settings
+        cones, rows = [], 0
+        for shape, k in shapes:
+            if shape == "norm":
+                cones.append(clarabel.SecondOrderConeT(k + 1))
+                rows += k + 1
+            else:
+                cones.append(clarabel.NonnegativeConeT(2))
+                rows += 2
+        self._cones = cones
+        self._rows = rows
+        self._zero = sparse.csc_matrix((size, size))
+
+    def run(self, problem: ReducedProblem):
+        """(y, multipliers, status, iterations)."""
+        blocks, b = [], []
+        for contact, matrix in zip(problem.contacts, problem.contact_matrices):
+            if contact.contact.shape == "norm":
+                blocks.append(np.vstack([np.zeros((1, problem.size)), -matrix]))
+                b.extend([1.0] + [0.0] * matrix.shape[0])
+            else:
+                blocks.append(np.vstack([matrix, -matrix]))
+                b.extend([1.0, 1.0])
+        a_matrix = self._sparse.csc_matrix(np.vstack(blocks))
+        solver = self._clarabel.DefaultSolver(self._zero, problem.objective, a_matrix,
+                                              np.array(b), self._cones, self._settings)
+        result = solver.solve()
+        y = np.asarray(result.x, dtype=float)
+        z = np.asarray(result.z, dtype=float)
+        multipliers, row = [], 0
+        for contact, matrix in zip(problem.contacts, problem.contact_matrices):
+            if contact.contact.shape == "norm":
+                multipliers.append(0.5 * z[row])  # d||Py||/dy = (1/2) d||Py||^2/dy on the sphere
+                row += matrix.shape[0] + 1
+            else:
+                multipliers.append(z[row] + z[row + 1])
+                row += 2
+        return y, np.array(multipliers), f"clarabel: {result.status}", int(result.iterations)
 
 
-def constraint_values(problem: ReducedProblem, y: np.ndarray) -> np.ndarray:
-    """phi_j(y) for every contact (<= 0 when feasible, 0 in contact)."""
-    values = []
-    for contact, matrix in zip(problem.contacts, problem.contact_matrices):
-        image = matrix @ y
-        values.append(image @ image - 1.0 if contact.contact.shape == "norm" else abs(image[0]) - 1.0)
-    return np.array(values)
+_BACKENDS: dict[tuple, object] = {}
 
 
-def constraint_gradients(problem: ReducedProblem, y: np.ndarray, signs: np.ndarray) -> np.ndarray:
-    """Gradients of phi_j (rows), (m, r); slabs use the side in ``signs``."""
-    rows = []
-    for j, (contact, matrix) in enumerate(zip(problem.contacts, problem.contact_matrices)):
-        if contact.contact.shape == "norm":
-            rows.append(2.0 * matrix.T @ (matrix @ y))
-        else:
-            rows.append(signs[j] * matrix[0])
-    return np.array(rows).reshape(-1, problem.size)
+def backend_for(problem: ReducedProblem, backend: str = "auto", tol: float = 1e-12):
+    """The built backend for this problem's signature, and whether it was built now."""
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; expected one of {BACKENDS}")
+    if backend == "auto":
+        backend = "clarabel" if clarabel_available() else "ipopt"
+    key = (backend, problem.signature(), tol)
+    if key in _BACKENDS:
+        return _BACKENDS[key], False
+    built = ClarabelBackend(key[1], tol) if backend == "clarabel" else IpoptBackend(key[1], tol)
+    _BACKENDS[key] = built
+    return built, True
 
 
-def measure(problem: ReducedProblem, solution: ConeSolution) -> None:
-    """Fill the residuals of ``solution`` from the problem data (not from the solver's report)."""
-    phi = constraint_values(problem, solution.y)
-    gradients = constraint_gradients(problem, solution.y, solution.signs)
-    stationary = problem.objective + gradients.T @ solution.multipliers
-    solution.stationarity = float(np.max(np.abs(stationary), initial=0.0))
-    solution.feasibility = float(np.max(phi, initial=0.0))
-    solution.complementarity = float(np.max(np.abs(solution.multipliers * phi), initial=0.0))
-    solution.dual_infeasibility = float(max(0.0, -np.min(solution.multipliers, initial=0.0)))
-
-
-def polish(problem: ReducedProblem, start: ConeSolution, rounds: int = 4) -> ConeSolution | None:
-    """Active-set Newton on the KKT system from ``start``; None if it cannot be verified."""
-    phi = constraint_values(problem, start.y)
-    largest = max(1.0, float(np.max(start.multipliers, initial=0.0)))
-    active = np.flatnonzero((phi > -ACTIVE_GAP) | (start.multipliers > 1e-9 * largest))
-    y, lam, signs = start.y.copy(), start.multipliers.copy(), start.signs.copy()
-    for _ in range(rounds):
-        y_new, lam_active = _newton(problem, y, lam[active], signs, active)
-        if y_new is None:
-            return None
-        lam_new = np.zeros_like(lam)
-        lam_new[active] = lam_active
-        negative = active[lam_active < -1e-12]
-        if negative.size:
-            active = np.setdiff1d(active, negative)
-            continue
-        phi_new = constraint_values(problem, y_new)
-        violated = np.flatnonzero(phi_new > 1e-13)
-        if violated.size:
-            active = np.union1d(active, violated)
-            continue
-        candidate = ConeSolution(y_new, np.maximum(lam_new, 0.0), signs, start.status,
-                                 start.iterations, True)
-        measure(problem, candidate)
-        if candidate.kkt_residual <= 1e-10:
-            return candidate
-        return None
-    return None
-
-
-def _newton(problem, y, lam_active, signs, active, iterations: int = 30):
-    matrices = problem.contact_matrices
-    is_norm = [problem.contacts[j].contact.shape == "norm" for j in active]
-    y, lam = y.copy(), lam_active.copy()
-    size, count = problem.size, len(active)
-    for _ in range(iterations):
-        gradients = constraint_gradients(problem, y, signs)[active] if count else np.zeros((0, size))
-        phi = constraint_values(problem, y)[active] if count else np.zeros(0)
-        residual = np.concatenate([problem.objective + gradients.T @ lam, phi])
-        if np.max(np.abs(residual), initial=0.0) < POLISH_TOL:
-            return y, lam
-        hessian = np.zeros((size, size))
-        for lam_j, j, norm in zip(lam, active, is_norm):
-            if norm:
-                hessian += 2.0 * lam_j * matrices[j].T @ matrices[j]
-        kkt = np.block([[hessian, gradients.T], [gradients, np.zeros((count, count))]])
-        step = np.linalg.lstsq(kkt, -residual, rcond=None)[0]
-        if not np.all(np.isfinite(step)):
-            return None, None
-        y += step[:size]
-        lam += step[size:]
-    final = np.concatenate([problem.objective + constraint_gradients(problem, y, signs)[active].T @ lam,
-                            constraint_values(problem, y)[active]])
-    if np.max(np.abs(final), initial=0.0) < 1e-11:
-        return y, lam
-    return None, None
-
-
-_CACHE: dict[tuple, ConeSolver] = {}
-
-
-def solver_for(problem: ReducedProblem, tol: float = 1e-12) -> tuple[ConeSolver, bool]:
-    """The built solver for this problem's signature, and whether it was built now."""
-    key = (problem.signature(), tol)
-    if key in _CACHE:
-        return _CACHE[key], False
-    solver = ConeSolver(problem.signature(), tol=tol)
-    _CACHE[key] = solver
-    return solver, True
+def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = None) -> ConeSolution:
+    """Solve ``problem``: warm Newton if ``warm`` verifies, else the backend then the polish."""
+    started = time.perf_counter()
+    stack = problem.stack
+    if warm is not None and warm.y.shape == (problem.size,):
+        verified = active_set_solve(stack, problem.objective, warm.y, warm.multipliers, warm.signs)
+        if verified is not None:
+            y, lam, signs, measured = verified
+            return ConeSolution(y, lam, signs, "warm Newton", 0, True, measured,
+                                time.perf_counter() - started)
+    y, lam, status, iterations = backend.run(problem)
+    signs = stack.sides(y)
+    phi = stack.values(y, None)
+    lam = np.where(phi > -ACTIVE_GAP, lam, 0.0)
+    verified = active_set_solve(stack, problem.objective, y, lam, signs)
+    if verified is not None:
+        y, lam, signs, measured = verified
+        return ConeSolution(y, lam, signs, status, iterations, True, measured,
+                            time.perf_counter() - started)
+    measured = residuals(stack, problem.objective, y, lam, signs)
+    return ConeSolution(y, lam, signs, status, iterations, False, measured,
+                        time.perf_counter() - started)

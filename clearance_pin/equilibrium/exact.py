@@ -274,19 +274,6 @@ def _assemble(mechanism, exact: ExactProblem, problem, configuration, z, lam, pa
         "clearance_m": max((c.clearance for c in contacts), default=0.0),
         "closure": float(np.max(np.abs(np.asarray(exact.closure(z, params))), initial=0.0)),
     }
-    oMf_cache = {}
-
-    def frame_motion(frame: str):
-        frame_id = mechanism.model.getFrameId(frame)
-        if frame_id not in oMf_cache:
-            f = model.frames[frame_id]
-            body = f.parentJoint
-            oMb = pin.SE3(placed[body][:, :3], placed[body][:, 3]) * f.placement
-            oMf_cache[frame_id] = oMb
-        nominal = configuration.oMf[frame_id]
-        moved = oMf_cache[frame_id]
-        return moved.translation - nominal.translation, pin.log3(moved.rotation @ nominal.rotation.T)
-
     return Equilibrium(
         formulation="exact", torsors=torsors, body_motions=body_motions, contacts=tuple(contacts),
         energy=float(energy.ravel()[0]), status="optimal", solver_status=stats["return_status"],
@@ -295,7 +282,6 @@ def _assemble(mechanism, exact: ExactProblem, problem, configuration, z, lam, pa
         body_placements=tuple([pin.SE3.Identity()] + [
             pin.SE3(placed[i][:, :3], placed[i][:, 3]) for i in range(1, model.njoints)]),
         mechanism=mechanism, configuration=configuration,
-        _frame_motion=frame_motion,
     )
 
 

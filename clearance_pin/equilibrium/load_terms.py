@@ -16,6 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..numerics import cross
 import pinocchio as pin
 
 from ..errors import LoadError
@@ -85,7 +87,7 @@ def _add_force(slot: list[np.ndarray], oMb: pin.SE3, point_in_body: np.ndarray, 
     slot[0] += force
     slot[1] += np.outer(force, point_in_body)
     slot[3][:3] += force
-    slot[3][3:] += np.cross(world_point, force)
+    slot[3][3:] += cross(world_point, force)
 
 
 def load_gradient(body_loads: dict[int, BodyLoad], body_twist: list[np.ndarray]) -> np.ndarray:

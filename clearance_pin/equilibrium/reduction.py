@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import UnboundedLoadError
 from ..model.clearance import COMPONENT_MEANING, COMPONENT_NAMES, ContactPoint
+from .kkt import StackedContacts
 from .small_displacement import SmallDisplacementMaps, null_space
 
 UNBOUNDED_FRACTION = 1e-9
@@ -65,6 +66,7 @@ class ReducedProblem:
         objective: f = Q^T Z g / sigma, (r,).
         objective_scale: sigma [J], so that the potential is sigma * f^T y.
         contact_matrices: P_j, one (k_j, r) array per contact.
+        stack: the P_j stacked for vectorised KKT evaluation.
     """
 
     gradient: np.ndarray
@@ -77,6 +79,7 @@ class ReducedProblem:
     objective: np.ndarray
     objective_scale: float
     contact_matrices: tuple[np.ndarray, ...]
+    stack: StackedContacts
 
     @property
     def size(self) -> int:
@@ -111,6 +114,7 @@ class ReducedGeometry:
     free_scaled: np.ndarray
     free_descriptions: tuple[str, ...]
     contact_matrices: tuple[np.ndarray, ...]
+    stack: StackedContacts
 
 
 def reduce_geometry(maps: SmallDisplacementMaps, joints: dict, length_scale: float) -> ReducedGeometry:
@@ -139,8 +143,9 @@ def reduce_geometry(maps: SmallDisplacementMaps, joints: dict, length_scale: flo
         "; ".join(describe_motion(maps, joints, free_x[:, i], length_scale))
         for i in range(free_x.shape[1])
     )
+    stack = StackedContacts(matrices, [c.contact.shape for c in contacts], basis.shape[1])
     return ReducedGeometry(scale, basis, tuple(contacts), equalities, free_x, free_z,
-                           descriptions, matrices)
+                           descriptions, matrices, stack)
 
 
 def with_load(geometry: ReducedGeometry, gradient: np.ndarray, maps: SmallDisplacementMaps,
@@ -166,7 +171,7 @@ def with_load(geometry: ReducedGeometry, gradient: np.ndarray, maps: SmallDispla
     return ReducedProblem(
         gradient, scale, geometry.basis, geometry.contacts, geometry.equalities,
         geometry.free_motions, geometry.free_descriptions, objective, sigma,
-        geometry.contact_matrices,
+        geometry.contact_matrices, geometry.stack,
     )
 
 

@@ -76,6 +76,8 @@ class Equilibrium:
             motion exp(xi_b) oM_b0 of each body's small twist.
         mechanism: the solved :class:`~clearance_pin.mechanism.Mechanism`.
         configuration: its nominal :class:`~clearance_pin.mechanism.Configuration`.
+        body_twists: linear formulation: the spatial twist (v, omega) at the world origin of every
+            body, shape (njoints, 6) [m, rad].
     """
 
     formulation: str
@@ -96,7 +98,7 @@ class Equilibrium:
     body_placements: tuple = ()
     mechanism: object = field(default=None, repr=False)
     configuration: object = field(default=None, repr=False)
-    _frame_motion: object = field(default=None, repr=False)
+    body_twists: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def ok(self) -> bool:
@@ -117,8 +119,25 @@ class Equilibrium:
         return self.torsors[joint].copy()
 
     def frame_displacement(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
-        """Displacement of a Pinocchio frame: (translation of its origin [m], rotation [rad]), world."""
-        return self._frame_motion(frame)
+        """Displacement of a Pinocchio frame: (translation of its origin [m], rotation [rad]), world.
+
+        Linear formulation: :math:`(v_b + \\omega_b \\times p_f, \\omega_b)` from the body twist;
+        exact: the finite displacement, rotation as a rotation vector (log3).
+        """
+        import pinocchio as pin
+
+        model = self.mechanism.model
+        if not model.existFrame(frame):
+            raise ClearancePinError(f"unknown frame {frame!r} in {self.mechanism.name!r}")
+        frame_id = model.getFrameId(frame)
+        body = model.frames[frame_id].parentJoint
+        nominal = self.configuration.oMf[frame_id]
+        if self.body_twists is not None:
+            twist = self.body_twists[body]
+            return twist[:3] + np.cross(twist[3:], nominal.translation), twist[3:].copy()
+        moved = self.body_placements[body] * model.frames[frame_id].placement
+        return (moved.translation - nominal.translation,
+                np.asarray(pin.log3(moved.rotation @ nominal.rotation.T)))
 
     @property
     def active_contacts(self) -> tuple[Contact, ...]:
