@@ -169,6 +169,14 @@ class Mechanism:
             return linear
         return solve_exact(self, resolved, q, linear, tol)
 
+    def solve_many(self, loads=None, configurations=None, **options):
+        """Many equilibria, warm-started in sequence; see
+        :func:`clearance_pin.equilibrium.batch.solve_many` (options: exact, gravity, tol, backend,
+        executor, chunks, errors, progress)."""
+        from .equilibrium.batch import solve_many
+
+        return solve_many(self, loads, configurations, **options)
+
     def __getstate__(self) -> dict:
         """Pickle without the built solvers (CasADi objects), which are rebuilt on demand."""
         state = dict(self.__dict__)

@@ -90,7 +90,7 @@ def residuals(stack: StackedContacts, objective, y, multipliers, signs) -> dict[
 
 
 def newton(stack: StackedContacts, objective, y, multipliers, signs, active,
-           iterations: int = 25):
+           iterations: int = 12):
     """Newton on the KKT system of ``active``; returns (y, lambda_active) or None."""
     size, count = stack.size, active.size
     kkt = np.zeros((size + count, size + count))
@@ -103,10 +103,11 @@ def newton(stack: StackedContacts, objective, y, multipliers, signs, active,
         gradients = gradients[active]
         residual[:size] = objective + gradients.T @ lam
         residual[size:] = values[active]
-        if np.abs(residual).max() < POLISH_TOL:
+        size_now = np.abs(residual).max()
+        if size_now < POLISH_TOL:
             return y, lam
-        if iteration == iterations:
-            break
+        if iteration == iterations or (iteration >= 6 and size_now > 1e-4):
+            break  # quadratic convergence did not set in: a wrong active set, give up early
         full[active] = lam
         kkt[:size, :size] = stack.hessian(full)
         kkt[:size, size:] = gradients.T
@@ -123,7 +124,7 @@ def newton(stack: StackedContacts, objective, y, multipliers, signs, active,
 
 
 def active_set_solve(stack: StackedContacts, objective, y, multipliers, signs=None,
-                     rounds: int = 6):
+                     rounds: int = 4):
     """Verified active-set Newton from a guess (y, multipliers); None if it cannot be verified.
 
     The active set starts as the contacts in touch or carrying a multiplier; contacts whose

@@ -201,14 +201,13 @@ def _constraints(maps: SmallDisplacementMaps, joints: dict):
 
 
 def _variable_scales(maps, joints, contacts, length_scale: float) -> np.ndarray:
+    """Clearance-sized scale of every unknown: its joint's play [m], or play / L_ref [rad]."""
     bounds = [c.contact.bound for c in contacts]
     reference = float(np.median(bounds)) if bounds else 1.0
-    scale = np.empty(maps.size)
-    for i, (name, basis) in enumerate(zip(maps.variable_joint, maps.variable_basis)):
-        own = joints[name].clearance.max_play or reference
-        translational = np.linalg.norm(basis[:3]) >= np.linalg.norm(basis[3:])
-        scale[i] = own if translational else reference / length_scale
-    return scale
+    plays = np.array([joints[name].clearance.max_play or reference for name in maps.variable_joint])
+    basis = np.array(maps.variable_basis).reshape(-1, 6)
+    translational = np.abs(basis[:, :3]).sum(axis=1) >= np.abs(basis[:, 3:]).sum(axis=1)
+    return np.where(translational, plays, reference / length_scale)
 
 
 def _complement(basis: np.ndarray, dimension: int) -> np.ndarray:

@@ -49,12 +49,25 @@ class SmallDisplacementMaps:
         return len(self.variable_joint)
 
 
+_BASES: dict[int, tuple[TreeJoint, np.ndarray]] = {}
+
+
 def tree_joint_basis(joint: TreeJoint) -> np.ndarray:
-    """Basis (6, n_k) of the torsor components of a tree joint that may move.
+    """Basis (6, n_k) of the torsor components of a tree joint that may move (memoised).
 
     Components are removed when rigid, locked by the drive, or held by a contact point with zero
     clearance (the rows of that contact point vanish on the basis).
     """
+    cached = _BASES.get(id(joint))
+    if cached is not None and cached[0] is joint:
+        return cached[1]
+    basis = _basis(joint)
+    basis.setflags(write=False)
+    _BASES[id(joint)] = (joint, basis)
+    return basis
+
+
+def _basis(joint: TreeJoint) -> np.ndarray:
     clearance = joint.clearance
     fixed_rows = [np.eye(6)[c] for c in clearance.rigid_components + joint.locked_components]
     for contact in clearance.contacts:

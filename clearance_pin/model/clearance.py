@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -70,15 +71,22 @@ class ContactPoint:
         Returns:
             array of shape (len(components), 6).
         """
-        x, y, z = self.point
-        displacement = np.array(
-            [
-                [1.0, 0.0, 0.0, 0.0, z, -y],
-                [0.0, 1.0, 0.0, -z, 0.0, x],
-                [0.0, 0.0, 1.0, y, -x, 0.0],
-            ]
-        )
-        return displacement[list(self.components)]
+        return _linear_rows(self.point, self.components)
+
+
+@lru_cache(maxsize=4096)
+def _linear_rows(point: tuple[float, float, float], components: tuple[int, ...]) -> np.ndarray:
+    x, y, z = point
+    displacement = np.array(
+        [
+            [1.0, 0.0, 0.0, 0.0, z, -y],
+            [0.0, 1.0, 0.0, -z, 0.0, x],
+            [0.0, 0.0, 1.0, y, -x, 0.0],
+        ]
+    )
+    rows = displacement[list(components)]
+    rows.setflags(write=False)
+    return rows
 
 
 @dataclass(frozen=True)

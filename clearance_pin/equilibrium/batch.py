@@ -1,0 +1,237 @@
+"""Many equilibria of one mechanism: load cases, trajectories of the driven joints, executors.
+
+Cases are solved in order, so each one is warm-started from its neighbour (the active-set Newton
+step of :mod:`.kkt` from the previous contact set) and the built problem is re-used. With an
+``executor`` (any ``concurrent.futures.Executor``: threads, processes, or Dask through
+``distributed.Client(...).get_executor()``), the cases are cut into contiguous chunks, one task
+each, so warm starts still chain inside a chunk.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from concurrent.futures import Executor
+from dataclasses import replace
+
+import numpy as np
+
+from ..errors import ClearancePinError
+from ..progress import Progress
+from .batch_newton import batched_newton
+from .load_terms import gather_body_loads, load_gradient
+from .reduction import UNBOUNDED_FRACTION
+
+BATCH_MINIMUM = 16
+
+
+class EquilibriumBatch(Sequence):
+    """The results of :func:`solve_many`: a sequence of equilibria, with whole-batch arrays.
+
+    Items are :class:`~clearance_pin.equilibrium.result.Equilibrium` objects (or the error of a
+    case, with ``errors="return"``), assembled on first access when the batch was solved on
+    stacked arrays. ``torsors(joint)``, ``ok``, ``energy`` and ``statuses`` read the whole batch
+    without assembling each item.
+    """
+
+    def __init__(self, items: list, arrays: dict | None = None):
+        self._items = items
+        self._arrays = arrays
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        item = self._items[index]
+        if callable(item):
+            item = self._items[index] = item()
+        return item
+
+    def torsors(self, joint: str) -> np.ndarray:
+        """Torsor of ``joint`` for every case, (N, 6) [m, rad] (NaN for failed cases)."""
+        if self._arrays is not None and joint in self._arrays["torsor_maps"]:
+            values = self._arrays["x"] @ self._arrays["torsor_maps"][joint].T
+            return np.where(self._arrays["batched"][:, None], values, self._fallback(joint))
+        return self._fallback(joint)
+
+    def _fallback(self, joint: str) -> np.ndarray:
+        rows = []
+        for i in range(len(self)):
+            if self._arrays is not None and self._arrays["batched"][i]:
+                rows.append(np.full(6, np.nan))
+                continue
+            item = self[i]
+            rows.append(np.full(6, np.nan) if isinstance(item, Exception) else item.torsor(joint))
+        return np.array(rows).reshape(-1, 6)
+
+    @property
+    def ok(self) -> np.ndarray:
+        """Per case: a verified equilibrium (False for errors), (N,)."""
+        if self._arrays is not None:
+            flags = self._arrays["batched"].copy()
+            for i in np.flatnonzero(~flags):
+                item = self[i]
+                flags[i] = not isinstance(item, Exception) and item.ok
+            return flags
+        return np.array([not isinstance(r, Exception) and r.ok for r in self])
+
+    @property
+    def energy(self) -> np.ndarray:
+        """Potential of the loads per case [J] (NaN for errors), (N,)."""
+        return np.array([np.nan if isinstance(r, Exception) else r.energy for r in self])
+
+    @property
+    def statuses(self) -> list[str]:
+        """Solver status per case (the error's class name for errors)."""
+        return [type(r).__name__ if isinstance(r, Exception) else r.solver_status for r in self]
+
+
+def _cases(mechanism, loads, configurations) -> list[tuple]:
+    if loads is not None and not isinstance(loads, Sequence):
+        loads = list(loads)
+    if configurations is not None:
+        configurations = [np.asarray(q, dtype=float) for q in configurations]
+    if loads is None and configurations is None:
+        raise ClearancePinError("solve_many needs load cases, configurations, or both")
+    if loads is not None and configurations is not None and len(loads) != len(configurations):
+        raise ClearancePinError(
+            f"solve_many pairs load cases with configurations: got {len(loads)} load cases and "
+            f"{len(configurations)} configurations"
+        )
+    count = len(loads) if loads is not None else len(configurations)
+    return [
+        (None if loads is None else loads[i], None if configurations is None else configurations[i])
+        for i in range(count)
+    ]
+
+
+def _solve_chunk(mechanism, cases, options: dict, errors: str, progress=None) -> list:
+    results = []
+    for case_loads, q in cases:
+        try:
+            results.append(mechanism.solve(loads=case_loads, q=q, **options))
+        except ClearancePinError as exc:
+            if errors == "raise":
+                raise
+            results.append(exc)
+        if progress is not None:
+            progress.update()
+    return results
+
+
+def solve_many(mechanism, loads=None, configurations=None, *, exact: bool = False, gravity=None,
+               tol: float = 1e-12, backend: str = "auto", executor: Executor | None = None,
+               chunks: int | None = None, errors: str = "raise", progress: bool | None = None):
+    """Solve many load cases and/or nominal configurations of one mechanism.
+
+    Args:
+        mechanism: the :class:`~clearance_pin.mechanism.Mechanism`.
+        loads: sequence of load cases (each a sequence of PointForce/Torque/Gravity), or None for
+            the model's loads in every case.
+        configurations: sequence of nominal configurations q (nq,) (a trajectory of the driven
+            joints; passive joints are closed for each), or None for the nominal one. When both
+            are given they are paired case by case.
+        exact, gravity, tol, backend: as in :meth:`Mechanism.solve`.
+        executor: run chunks of cases as tasks of this executor (default: in this process).
+        chunks: number of chunks with an executor (default: 4 per worker, at least 1 case each).
+        errors: ``"raise"`` (first error stops) or ``"return"`` (the error takes the case's place).
+        progress: progress bar on stderr (None: when stderr is a terminal and more than 100 cases).
+
+    Returns:
+        list of :class:`~clearance_pin.equilibrium.result.Equilibrium` (or errors), in case order.
+    """
+    if errors not in ("raise", "return"):
+        raise ClearancePinError(f"errors must be 'raise' or 'return', got {errors!r}")
+    cases = _cases(mechanism, loads, configurations)
+    options = {"exact": exact, "gravity": gravity, "tol": tol, "backend": backend}
+    show = progress if progress is not None else (None if len(cases) > 100 else False)
+    bar = Progress(len(cases), "solve_many", show)
+    if executor is None:
+        if configurations is None and not exact and len(cases) >= BATCH_MINIMUM:
+            batch = _solve_loads_batched(mechanism, cases, options, errors, bar)
+            bar.close()
+            return batch
+        results = _solve_chunk(mechanism, cases, options, errors, bar)
+        bar.close()
+        return EquilibriumBatch(results)
+    workers = getattr(executor, "_max_workers", None) or 2
+    count = chunks or min(len(cases), 4 * workers)
+    bounds = np.linspace(0, len(cases), count + 1).astype(int)
+    futures = [
+        executor.submit(_solve_chunk, mechanism, cases[a:b], options, errors)
+        for a, b in zip(bounds[:-1], bounds[1:]) if b > a
+    ]
+    results = []
+    for future in futures:
+        chunk = future.result()
+        for result in chunk:
+            if not isinstance(result, Exception):
+                _reattach(result, mechanism)
+        results.extend(chunk)
+        bar.update(len(chunk))
+    bar.close()
+    return EquilibriumBatch(results)
+
+
+def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumBatch:
+    """Load cases at one configuration: one geometry, Newton on stacked arrays, then fallbacks."""
+    from .solve import _assemble, linear_setup
+
+    first = _solve_chunk(mechanism, cases[:1], options, errors)[0]
+    if isinstance(first, Exception) or first.status != "optimal":
+        return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
+    resolved = [mechanism.resolve_loads(case_loads, options["gravity"]) for case_loads, _ in cases]
+    configuration, maps, _, problem0 = linear_setup(mechanism, resolved[0], None)
+    import pinocchio as pin
+
+    pin.framesForwardKinematics(mechanism.model, mechanism.data, configuration.q)
+    gradients = np.array([
+        load_gradient(gather_body_loads(mechanism.model, mechanism.data, loads,
+                                        mechanism.link_frames), maps.body_twist)
+        for loads in resolved
+    ])
+    scaled = gradients * problem0.scale
+    references = np.linalg.norm(scaled, axis=1)
+    free = problem0.free_motions / problem0.scale[:, None]
+    along_free = np.linalg.norm(scaled @ free, axis=1) if free.size else np.zeros(len(cases))
+    reduced = scaled @ problem0.basis
+    sigmas = np.linalg.norm(reduced, axis=1)
+    regular = (along_free <= UNBOUNDED_FRACTION * references) & (sigmas > 0.0)
+    objectives = reduced / np.where(sigmas > 0.0, sigmas, 1.0)[:, None]
+    warm = mechanism._solve_state[("warm", problem0.signature())]
+    y, multipliers, verified, worst = batched_newton(problem0.stack, objectives, warm.y,
+                                                     warm.multipliers, warm.signs)
+    verified &= regular
+    x = (y @ problem0.basis.T) * problem0.scale
+    items: list = []
+    for i in range(len(cases)):
+        if verified[i]:
+            problem = replace(problem0, gradient=gradients[i], objective=objectives[i],
+                              objective_scale=float(sigmas[i]))
+            items.append(_lazy_item(mechanism, configuration, maps, problem, y[i],
+                                    multipliers[i], warm.signs, worst[i], _assemble))
+        else:
+            items.append(None)
+    bar.update(int(verified.sum()))
+    for i in np.flatnonzero(~verified):
+        items[i] = _solve_chunk(mechanism, [cases[i]], options, errors)[0]
+        bar.update()
+    torsor_maps = {name: maps.joint_torsor[name] for name in mechanism.joints}
+    return EquilibriumBatch(items, {"x": x, "batched": verified, "torsor_maps": torsor_maps})
+
+
+def _lazy_item(mechanism, configuration, maps, problem, y, multipliers, signs, worst, assemble):
+    def build():
+        return assemble(mechanism, configuration, maps, problem, y, multipliers, signs, "optimal",
+                        "batched Newton", 0, True, 0.0, 0.0,
+                        {"stationarity": float(worst), "feasibility": 0.0,
+                         "complementarity": 0.0, "dual_infeasibility": 0.0})
+    return build
+
+
+def _reattach(equilibrium, mechanism) -> None:
+    """Point a result computed in another process at the caller's mechanism object."""
+    equilibrium.mechanism = mechanism
+    if equilibrium.linear is not None:
+        equilibrium.linear.mechanism = mechanism
