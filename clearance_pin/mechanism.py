@@ -141,14 +141,17 @@ class Mechanism:
         return chosen
 
     # -- solving --------------------------------------------------------------------------
-    def solve(self, loads=None, exact: bool = False, q=None, gravity=None, tol: float = 1e-12,
-              backend: str = "auto"):
+    def solve(self, loads=None, exact: bool | str = False, q=None, gravity=None,
+              tol: float = 1e-12, backend: str = "auto", accuracy: float = 1e-9):
         """Quasi-static equilibrium of the parts in their joint clearances.
 
         Args:
             loads: PointForce / Torque / Gravity loads; default: those of the model file.
-            exact: also solve the exact finite-displacement model (warm-started from the linear
-                one) and return it, with the linear solution in ``.linear``.
+            exact: False: the small-displacement model [Y]; True: also solve the exact
+                finite-displacement model (warm-started from the linear one) and return it, with
+                the linear solution in ``.linear``; ``"auto"``: the exact model only when the
+                linear solution sits more than ``accuracy`` [m] off the true clearance boundaries
+                (:mod:`clearance_pin.equilibrium.second_order`); ``.note`` says which and why.
             q: nominal configuration (default: the model's); driven joints are held there.
             gravity: True / a :class:`Gravity` to add gravity, False to switch it off,
                 None for the model's setting.
@@ -162,9 +165,24 @@ class Mechanism:
         """
         from .equilibrium.solve import solve_exact, solve_linear
 
+        if exact not in (True, False, "auto"):
+            raise ClearancePinError(f"exact must be True, False or 'auto', got {exact!r}")
         gravity_load = False if gravity is False else gravity
         resolved = self.resolve_loads(loads, gravity_load)
         linear = solve_linear(self, resolved, q, tol, backend)
+        if exact == "auto":
+            from .equilibrium.second_order import linear_model_error
+
+            error = linear_model_error(linear)
+            linear.residuals["second_order_m"] = error
+            if error <= accuracy:
+                linear.note = (f"auto: small-displacement model kept, its error at the solution "
+                               f"{error:.2e} m <= accuracy {accuracy:.0e} m")
+                return linear
+            result = solve_exact(self, resolved, q, linear, tol)
+            result.note = (f"auto: exact model run, the small-displacement solution is "
+                           f"{error:.2e} m off the true boundaries > accuracy {accuracy:.0e} m")
+            return result
         if not exact:
             return linear
         return solve_exact(self, resolved, q, linear, tol)

@@ -78,6 +78,7 @@ class Equilibrium:
         configuration: its nominal :class:`~clearance_pin.mechanism.Configuration`.
         body_twists: linear formulation: the spatial twist (v, omega) at the world origin of every
             body, shape (njoints, 6) [m, rad].
+        note: how the formulation was chosen (``exact="auto"``).
     """
 
     formulation: str
@@ -99,6 +100,7 @@ class Equilibrium:
     mechanism: object = field(default=None, repr=False)
     configuration: object = field(default=None, repr=False)
     body_twists: np.ndarray | None = field(default=None, repr=False)
+    note: str = ""
 
     @property
     def ok(self) -> bool:
@@ -174,6 +176,7 @@ class Equilibrium:
             "build_time_s": self.build_time,
             "solve_time_s": self.solve_time,
             "difference_exact_linear": self.difference,
+            "note": self.note,
         }
 
     def table(self, length: float = 1e6, unit: str = "um") -> str:
@@ -201,6 +204,8 @@ class Equilibrium:
             f"max violation {r.get('max_violation_m', 0) * length:.1e} {unit}; "
             f"build {self.build_time * 1e3:.2f} ms, solve {self.solve_time * 1e3:.2f} ms"
         )
+        if self.note:
+            lines.append(self.note)
         if self.difference:
             lines.append(
                 f"exact - linear: {self.difference['translation_m'] * length:.3e} {unit}, "

@@ -16,9 +16,9 @@ import pinocchio as pin
 from ..errors import SolverError
 from .cone_solver import backend_for, solve_cone
 from .load_terms import gather_body_loads, load_gradient
-from .reduction import ReducedProblem, reduce_geometry, with_load
+from .reduction import ReducedProblem, describe_motion, reduce_geometry, with_load
 from .result import Contact, Equilibrium
-from .small_displacement import SmallDisplacementMaps, build_maps
+from .small_displacement import SmallDisplacementMaps, build_maps, null_space
 
 ACTIVE_RELATIVE_GAP = 1e-7
 
@@ -63,16 +63,46 @@ def solve_linear(mechanism, loads, q=None, tol: float = 1e-12, backend: str = "a
     solution = solve_cone(problem, built, warm=mechanism._solve_state.get(warm_key))
     if solution.polished:
         mechanism._solve_state[warm_key] = solution
+    flat = flat_directions(problem, solution)
+    if flat.shape[1]:
+        centred = solution.y - flat @ (flat.T @ solution.y)
+        if np.max(problem.stack.values(centred, None), initial=0.0) <= 1e-13:
+            solution.y = centred
     equilibrium = _assemble(
         mechanism, configuration, maps, problem, solution.y, solution.multipliers, solution.signs,
         "optimal", solution.status, solution.iterations, solution.polished,
         built.build_time if built_now else 0.0, time.perf_counter() - started,
         solution.residuals,
     )
+    if flat.shape[1]:
+        equilibrium.free_motions = equilibrium.free_motions + tuple(
+            "bounded but not loaded (the optimum is not unique; minimum-norm point returned): "
+            + "; ".join(describe_motion(maps, mechanism.joints, problem.x_from_y(flat[:, i]),
+                                        mechanism.length_scale()))
+            for i in range(flat.shape[1])
+        )
     if not equilibrium.ok:
         raise SolverError("the small-displacement solve did not reach a verified optimum",
                           solution.status, equilibrium.residuals)
     return equilibrium
+
+
+def flat_directions(problem: ReducedProblem, solution) -> np.ndarray:
+    r"""Directions (r, k) along which the optimum is not unique although the play bounds them.
+
+    At a verified optimum with contact set A, a direction d with :math:`G_A d = 0` (it keeps every
+    contact) and :math:`\nabla^2 L\, d = 0` (no curvature of the active cones along it) changes
+    neither the potential nor feasibility to second order: the load does not see it (for example
+    the axial play of a journal loaded only radially).
+    """
+    if not solution.polished:
+        return np.zeros((problem.size, 0))
+    stack = problem.stack
+    active = np.flatnonzero(solution.multipliers > 0.0)
+    _, gradients = stack.evaluate(solution.y, solution.signs)
+    rows = np.vstack([gradients[active], stack.hessian(solution.multipliers)])
+    scale = max(1.0, float(np.abs(rows).max(initial=0.0)))
+    return null_space(rows / scale, rtol=1e-9) if rows.size else np.eye(problem.size)
 
 
 def _assemble(mechanism, configuration, maps: SmallDisplacementMaps, problem: ReducedProblem, y, multipliers,
