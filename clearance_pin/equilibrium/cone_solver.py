@@ -23,7 +23,6 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-import casadi as ca
 import numpy as np
 
 from .kkt import ACTIVE_GAP, active_set_solve, residuals
@@ -78,6 +77,8 @@ class IpoptBackend:
     name = "ipopt"
 
     def __init__(self, signature: tuple, tol: float = 1e-12, max_iter: int = 200):
+        import casadi as ca
+
         started = time.perf_counter()
         size, shapes = signature
         y = ca.SX.sym("y", size)
