@@ -19,34 +19,25 @@ Shared math and conventions (all Pinocchio's):
   ``pin.integrate`` (``q (+) v``, ``v`` in the joint's local tangent space).
 """
 
-from .casadi_kinematics import (
-    SUPPORTED_JOINTS,
-    CasadiKinematics,
-    JointSpec,
-    casadi_function,
-    joint_integrate,
-    joint_transform,
-    stack_placements,
-)
-from .lie_casadi import (
-    Placement,
-    act,
-    as_placement,
-    as_sx,
-    axis_angle_rotation,
-    compose,
-    identity,
-    inverse,
-    quat_exp3,
-    quat_multiply,
-    quat_to_rotation,
-    rotation_vee_antisym,
-    se2_exp,
-    se3_exp,
-    skew,
-    so3_exp,
-    vee,
-)
+import importlib
+
+_LAZY = {
+    **{name: "casadi_kinematics" for name in (
+        "SUPPORTED_JOINTS", "CasadiKinematics", "JointSpec", "casadi_function",
+        "joint_integrate", "joint_transform", "stack_placements")},
+    **{name: "lie_casadi" for name in (
+        "Placement", "act", "as_placement", "as_sx", "axis_angle_rotation", "compose",
+        "identity", "inverse", "quat_exp3", "quat_multiply", "quat_to_rotation",
+        "rotation_vee_antisym", "se2_exp", "se3_exp", "skew", "so3_exp", "vee")},
+}
+
+
+def __getattr__(name: str):
+    """Import the CasADi modules on first use: Pinocchio-only callers (loop closure) skip CasADi."""
+    if name in _LAZY:
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "SUPPORTED_JOINTS",
