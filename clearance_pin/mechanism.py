@@ -142,7 +142,8 @@ class Mechanism:
 
     # -- solving --------------------------------------------------------------------------
     def solve(self, loads=None, exact: bool | str = False, q=None, gravity=None,
-              tol: float = 1e-12, backend: str = "auto", accuracy: float = 1e-9):
+              tol: float = 1e-12, backend: str = "auto", accuracy: float = 1e-9,
+              warm_start: bool = True):
         """Quasi-static equilibrium of the parts in their joint clearances.
 
         Args:
@@ -156,6 +157,8 @@ class Mechanism:
             gravity: True / a :class:`Gravity` to add gravity, False to switch it off,
                 None for the model's setting.
             tol: optimiser tolerance (dimensionless, on clearance-scaled unknowns).
+            warm_start: try the active-set Newton step from the previous solution of the same
+                structure first (False: always start from the nominal position).
             backend: ``"auto"`` (Clarabel when installed, else IPOPT), ``"clarabel"`` or
                 ``"ipopt"`` for the small-displacement cone programme; the answer is polished and
                 verified the same way whichever finds it. The exact model always uses IPOPT.
@@ -169,7 +172,7 @@ class Mechanism:
             raise ClearancePinError(f"exact must be True, False or 'auto', got {exact!r}")
         gravity_load = False if gravity is False else gravity
         resolved = self.resolve_loads(loads, gravity_load)
-        linear = solve_linear(self, resolved, q, tol, backend)
+        linear = solve_linear(self, resolved, q, tol, backend, warm_start)
         if exact == "auto":
             from .equilibrium.second_order import linear_model_error
 

@@ -107,6 +107,7 @@ def _cases(mechanism, loads, configurations) -> list[tuple]:
 
 
 def _solve_chunk(mechanism, cases, options: dict, errors: str, progress=None) -> list:
+    """Solve cases in order (each warm-started from the previous one)."""
     results = []
     for case_loads, q in cases:
         try:

@@ -48,7 +48,8 @@ def linear_setup(mechanism, loads, q):
     return configuration, maps, body_loads, problem
 
 
-def solve_linear(mechanism, loads, q=None, tol: float = 1e-12, backend: str = "auto") -> Equilibrium:
+def solve_linear(mechanism, loads, q=None, tol: float = 1e-12, backend: str = "auto",
+                 warm_start: bool = True) -> Equilibrium:
     """Small-displacement equilibrium (METHOD.md section 1) with its residuals measured."""
     started = time.perf_counter()
     configuration, maps, _, problem = linear_setup(mechanism, loads, q)
@@ -60,7 +61,8 @@ def solve_linear(mechanism, loads, q=None, tol: float = 1e-12, backend: str = "a
                          time.perf_counter() - started, {})
     built, built_now = backend_for(problem, backend, tol)
     warm_key = ("warm", problem.signature())
-    solution = solve_cone(problem, built, warm=mechanism._solve_state.get(warm_key))
+    warm = mechanism._solve_state.get(warm_key) if warm_start else None
+    solution = solve_cone(problem, built, warm=warm)
     if solution.polished:
         mechanism._solve_state[warm_key] = solution
     flat = flat_directions(problem, solution)
