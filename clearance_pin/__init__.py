@@ -12,6 +12,7 @@ Build once, solve many::
 from .equilibrium.result import Contact, Equilibrium
 from .errors import (
     ClearancePinError,
+    ConditioningWarning,
     LoadError,
     ModelError,
     SolverError,
@@ -33,6 +34,7 @@ __all__ = [
     "Torque",
     "Gravity",
     "ClearancePinError",
+    "ConditioningWarning",
     "ModelError",
     "LoadError",
     "UnboundedLoadError",

@@ -73,3 +73,8 @@ class SolverError(ClearancePinError):
 
 class UnsupportedError(ClearancePinError, NotImplementedError):
     """A feature combination that clearance_pin does not handle (named in the message)."""
+
+
+class ConditioningWarning(UserWarning):
+    """The loop closure is nearly singular (a toggle or dead-centre position): the
+    small-displacement answer loses accuracy roughly as 1 / conditioning."""

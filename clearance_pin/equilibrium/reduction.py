@@ -67,6 +67,7 @@ class ReducedProblem:
         objective_scale: sigma [J], so that the potential is sigma * f^T y.
         contact_matrices: P_j, one (k_j, r) array per contact.
         stack: the P_j stacked for vectorised KKT evaluation.
+        conditioning: see :func:`closure_conditioning`.
     """
 
     gradient: np.ndarray
@@ -80,6 +81,7 @@ class ReducedProblem:
     objective_scale: float
     contact_matrices: tuple[np.ndarray, ...]
     stack: StackedContacts
+    conditioning: float = 1.0
 
     @property
     def size(self) -> int:
@@ -115,6 +117,23 @@ class ReducedGeometry:
     free_descriptions: tuple[str, ...]
     contact_matrices: tuple[np.ndarray, ...]
     stack: StackedContacts
+    conditioning: float = 1.0
+
+
+def closure_conditioning(scaled_rows: np.ndarray, rtol: float = 1e-10) -> float:
+    """Smallest kept singular value of scaled constraint rows over the largest.
+
+    Applied to the closure equations E Z and to the contact rows on the closed motions: 1 for a
+    well-posed mechanism; small near a toggle position, where the joints are about to allow a
+    motion that no contact sees (values below ``rtol`` count as such a motion and are eliminated).
+    """
+    if scaled_rows.size == 0:
+        return 1.0
+    singular = np.linalg.svd(scaled_rows, compute_uv=False)
+    if singular[0] == 0.0:
+        return 1.0
+    kept = singular[singular > rtol * singular[0]]
+    return float(kept[-1] / singular[0])
 
 
 def reduce_geometry(maps: SmallDisplacementMaps, joints: dict, length_scale: float) -> ReducedGeometry:
@@ -130,9 +149,12 @@ def reduce_geometry(maps: SmallDisplacementMaps, joints: dict, length_scale: flo
     scale = _variable_scales(maps, joints, contacts, length_scale)
     equalities = np.array(equality_rows).reshape(-1, n)
     closure_basis = null_space(equalities * scale) if equalities.size else np.eye(n)
+    conditioning = closure_conditioning(equalities * scale)
     if contacts:
         contact_rows = np.vstack([c.rows for c in contacts]) * scale
-        free_w = null_space(contact_rows @ closure_basis)
+        seen = contact_rows @ closure_basis
+        free_w = null_space(seen)
+        conditioning = min(conditioning, closure_conditioning(seen))
     else:
         free_w = np.eye(closure_basis.shape[1])
     free_z = closure_basis @ free_w
@@ -145,7 +167,7 @@ def reduce_geometry(maps: SmallDisplacementMaps, joints: dict, length_scale: flo
     )
     stack = StackedContacts(matrices, [c.contact.shape for c in contacts], basis.shape[1])
     return ReducedGeometry(scale, basis, tuple(contacts), equalities, free_x, free_z,
-                           descriptions, matrices, stack)
+                           descriptions, matrices, stack, conditioning)
 
 
 def with_load(geometry: ReducedGeometry, gradient: np.ndarray, maps: SmallDisplacementMaps,
@@ -171,7 +193,7 @@ def with_load(geometry: ReducedGeometry, gradient: np.ndarray, maps: SmallDispla
     return ReducedProblem(
         gradient, scale, geometry.basis, geometry.contacts, geometry.equalities,
         geometry.free_motions, geometry.free_descriptions, objective, sigma,
-        geometry.contact_matrices, geometry.stack,
+        geometry.contact_matrices, geometry.stack, geometry.conditioning,
     )
 
 

@@ -7,13 +7,14 @@ The small-displacement path (:func:`solve_linear`) is the paper's model [Y]; the
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 
 from ..numerics import cross
 import pinocchio as pin
 
-from ..errors import SolverError
+from ..errors import ConditioningWarning, SolverError
 from .cone_solver import backend_for, solve_cone
 from .load_terms import gather_body_loads, load_gradient
 from .reduction import ReducedProblem, describe_motion, reduce_geometry, with_load
@@ -21,6 +22,7 @@ from .result import Contact, Equilibrium
 from .small_displacement import SmallDisplacementMaps, build_maps, null_space
 
 ACTIVE_RELATIVE_GAP = 1e-7
+CONDITIONING_WARNING = 1e-6
 
 
 def linear_setup(mechanism, loads, q):
@@ -83,6 +85,11 @@ def solve_linear(mechanism, loads, q=None, tol: float = 1e-12, backend: str = "a
                                         mechanism.length_scale()))
             for i in range(flat.shape[1])
         )
+    if problem.conditioning < CONDITIONING_WARNING:
+        warnings.warn(ConditioningWarning(
+            f"{mechanism.name}: the loop closure is nearly singular (conditioning "
+            f"{problem.conditioning:.1e}; a toggle or dead-centre position?): expect the answer "
+            f"to lose about {-np.log10(problem.conditioning):.0f} digits"), stacklevel=3)
     if not equilibrium.ok:
         raise SolverError("the small-displacement solve did not reach a verified optimum",
                           solution.status, equilibrium.residuals)
@@ -124,6 +131,7 @@ def _assemble(mechanism, configuration, maps: SmallDisplacementMaps, problem: Re
     residuals["statics"] = statics_residual(problem, x, contacts)
     residuals["max_violation_m"] = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
     residuals["clearance_m"] = max((c.clearance for c in contacts), default=0.0)
+    residuals["closure_conditioning"] = problem.conditioning
     placements = tuple([oMi[0]] + [pin.exp6(pin.Motion(twists[i])) * oMi[i]
                                    for i in range(1, model.njoints)])
     return Equilibrium(
