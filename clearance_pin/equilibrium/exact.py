@@ -271,6 +271,7 @@ def _assemble(mechanism, exact: ExactProblem, problem, configuration, z, lam, pa
             [lam[j] if s == "norm" else abs(lam[j]) for j, s in enumerate(exact.shapes)],
             default=0.0))),
         "max_violation_m": violation,
+        "max_violation_rel": max((max(-c.gap, 0.0) / c.clearance for c in contacts), default=0.0),
         "clearance_m": max((c.clearance for c in contacts), default=0.0),
         "closure": float(np.max(np.abs(np.asarray(exact.closure(z, params))), initial=0.0)),
     }

@@ -64,7 +64,9 @@ class Equilibrium:
         solver_status: the optimiser's own status text.
         iterations: optimiser iterations.
         residuals: measured residuals (dimensionless unless named ``_m``): stationarity,
-            feasibility, complementarity, dual_infeasibility, statics, and ``max_violation_m`` [m].
+            feasibility, complementarity, dual_infeasibility, statics, ``max_violation_m`` [m]
+            and ``max_violation_rel`` (penetration over the play), ``closure_conditioning``, and
+            for the exact model ``closure`` [m] (loop equations, including redundant ones).
         free_motions: motions that no contact sees, left at zero (minimum-norm optimum).
         build_time, solve_time: [s]; build_time is 0 when a built problem was re-used.
         polished: the active-set Newton polish was accepted.
@@ -104,10 +106,13 @@ class Equilibrium:
 
     @property
     def ok(self) -> bool:
-        """Residuals within tolerance: feasible, stationary and balanced."""
+        """Residuals within tolerance: every contact inside its play (to 1e-9 of that play), the
+        loop closure held (exact model), the contact forces balancing the load (statics), and no
+        contact pulling (dual feasibility)."""
         r = self.residuals
         return (
-            r.get("max_violation_m", 0.0) <= FEASIBILITY_TOLERANCE * max(1.0, r.get("clearance_m", 1.0))
+            r.get("max_violation_rel", 0.0) <= FEASIBILITY_TOLERANCE
+            and r.get("closure", 0.0) <= FEASIBILITY_TOLERANCE * max(r.get("clearance_m", 0.0), 1e-12)
             and r.get("statics", 0.0) <= STATICS_TOLERANCE
             and r.get("dual_infeasibility", 0.0) <= 1e-8
         )

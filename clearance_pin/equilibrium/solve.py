@@ -130,6 +130,8 @@ def _assemble(mechanism, configuration, maps: SmallDisplacementMaps, problem: Re
     residuals = dict(residuals)
     residuals["statics"] = statics_residual(problem, x, contacts)
     residuals["max_violation_m"] = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
+    residuals["max_violation_rel"] = max((max(-c.gap, 0.0) / c.clearance for c in contacts),
+                                         default=0.0)
     residuals["clearance_m"] = max((c.clearance for c in contacts), default=0.0)
     residuals["closure_conditioning"] = problem.conditioning
     placements = tuple([oMi[0]] + [pin.exp6(pin.Motion(twists[i])) * oMi[i]
