@@ -8,7 +8,7 @@ BIN := $(VENV)/bin
 $(BIN)/clearance-pin: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,plot,fast]"
+	$(BIN)/python -m pip install --quiet -e ".[test,plot,fast,distributed]"
 	touch $@
 
 demo: $(BIN)/clearance-pin
