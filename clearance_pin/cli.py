@@ -47,8 +47,11 @@ def _solve(args: argparse.Namespace) -> int:
 def _validate(args: argparse.Namespace) -> int:
     script = Path(__file__).resolve().parent.parent / "validation" / "younes2013.py"
     if not script.exists():
-        print("clearance-pin validate: the validation scripts ship with the source tree "
-              "(validation/younes2013.py), not with the installed package", file=sys.stderr)
+        print(
+            "clearance-pin validate: the validation scripts ship with the source tree "
+            "(validation/younes2013.py), not with the installed package",
+            file=sys.stderr,
+        )
         return 2
     import runpy
 

@@ -137,13 +137,21 @@ class Mechanism:
         elif gravity is None:
             gravity = self.gravity
         if gravity:
-            chosen = chosen + (gravity,)
+            chosen = (*chosen, gravity)
         return chosen
 
     # -- solving --------------------------------------------------------------------------
-    def solve(self, loads=None, exact: bool | str = False, q=None, gravity=None,
-              tol: float = 1e-12, backend: str = "auto", accuracy: float = 1e-9,
-              warm_start: bool = True):
+    def solve(
+        self,
+        loads=None,
+        exact: bool | str = False,
+        q=None,
+        gravity=None,
+        tol: float = 1e-12,
+        backend: str = "auto",
+        accuracy: float = 1e-9,
+        warm_start: bool = True,
+    ):
         """Quasi-static equilibrium of the parts in their joint clearances.
 
         Args:
@@ -179,12 +187,16 @@ class Mechanism:
             error = linear_model_error(linear)
             linear.residuals["second_order_m"] = error
             if error <= accuracy:
-                linear.note = (f"auto: small-displacement model kept, its error at the solution "
-                               f"{error:.2e} m <= accuracy {accuracy:.0e} m")
+                linear.note = (
+                    f"auto: small-displacement model kept, its error at the solution "
+                    f"{error:.2e} m <= accuracy {accuracy:.0e} m"
+                )
                 return linear
             result = solve_exact(self, resolved, q, linear, tol)
-            result.note = (f"auto: exact model run, the small-displacement solution is "
-                           f"{error:.2e} m off the true boundaries > accuracy {accuracy:.0e} m")
+            result.note = (
+                f"auto: exact model run, the small-displacement solution is "
+                f"{error:.2e} m off the true boundaries > accuracy {accuracy:.0e} m"
+            )
             return result
         if not exact:
             return linear
@@ -212,9 +224,13 @@ class Mechanism:
     def joint(self, name: str):
         """The tree or loop joint called ``name``."""
         if name not in self.joints:
-            raise ClearancePinError(f"unknown joint {name!r}; the joints are: {', '.join(self.joints)}")
+            raise ClearancePinError(
+                f"unknown joint {name!r}; the joints are: {', '.join(self.joints)}"
+            )
         return self.joints[name]
 
     def __repr__(self) -> str:
-        return (f"Mechanism({self.name!r}: {len(self.tree_joints)} tree joints, "
-                f"{len(self.loop_joints)} loop joints, {len(self.loads)} loads)")
+        return (
+            f"Mechanism({self.name!r}: {len(self.tree_joints)} tree joints, "
+            f"{len(self.loop_joints)} loop joints, {len(self.loads)} loads)"
+        )

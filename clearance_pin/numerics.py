@@ -7,4 +7,6 @@ import numpy as np
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross product a x b of two 3-vectors (numpy.cross costs ~20x more on shape (3,))."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )

@@ -15,8 +15,10 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "validation"))
 from younes2013 import build  # noqa: E402
 
-CASES = {c["id"]: c for c in tomllib.loads((ROOT / "validation" / "younes2013_cases.toml")
-                                           .read_text())["case"]}
+CASES = {
+    c["id"]: c
+    for c in tomllib.loads((ROOT / "validation" / "younes2013_cases.toml").read_text())["case"]
+}
 
 
 @pytest.mark.parametrize("case_id", sorted(CASES))

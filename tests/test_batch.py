@@ -17,8 +17,13 @@ MODELS = Path(__file__).resolve().parent.parent / "models"
 def _load_cases(count: int, seed: int = 3) -> list:
     rng = np.random.default_rng(seed)
     return [
-        [PointForce("shaft", force=np.array([1.0, 1.0, 1.0]) + 0.6 * rng.standard_normal(3),
-                    point=[0.3, 0.0, 0.0])]
+        [
+            PointForce(
+                "shaft",
+                force=np.array([1.0, 1.0, 1.0]) + 0.6 * rng.standard_normal(3),
+                point=[0.3, 0.0, 0.0],
+            )
+        ]
         for _ in range(count)
     ]
 
@@ -71,7 +76,7 @@ def test_executor_gives_the_same_answers():
 def test_errors_returned_in_place():
     """With errors='return', an unbounded case holds its UnboundedLoadError and others solve."""
     mechanism = cp.load(MODELS / "younes_sphere_cylinder.urdf")
-    cases = _load_cases(3) + [[Torque("shaft", [1.0, 0.0, 0.0])]] + _load_cases(2)
+    cases = [*_load_cases(3), [Torque("shaft", [1.0, 0.0, 0.0])], *_load_cases(2)]
     results = mechanism.solve_many(cases, errors="return")
     assert isinstance(results[3], cp.UnboundedLoadError)
     assert "alpha" in str(results[3])
@@ -85,9 +90,12 @@ def test_dask_local_cluster():
     distributed = pytest.importorskip("distributed")
     mechanism = cp.load(MODELS / "younes_sphere_cylinder.urdf")
     cases = _load_cases(12)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         results = mechanism.solve_many(cases, executor=client.get_executor(), chunks=4)
     local = mechanism.solve_many(cases)
     assert np.allclose(results.torsors("I1"), local.torsors("I1"), rtol=0, atol=1e-15)

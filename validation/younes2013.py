@@ -30,8 +30,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
-import clearance_pin  # noqa: E402
-from clearance_pin.model.builders import JointSpec, shaft_urdf  # noqa: E402
+import clearance_pin
+from clearance_pin.model.builders import JointSpec, shaft_urdf
 
 MM = 1e3
 TOLERANCE_MM = 1e-9
@@ -41,13 +41,20 @@ TOLERANCE_RAD = 1e-11
 def build(case: dict):
     """The case's mechanism, from its SI inputs."""
     joints = [
-        JointSpec(j["name"], j["kind"], tuple(j["center_m"]), j["diametral_clearance_m"],
-                  j.get("length_m", 0.0), tuple(j.get("axis", (1.0, 0.0, 0.0))))
+        JointSpec(
+            j["name"],
+            j["kind"],
+            tuple(j["center_m"]),
+            j["diametral_clearance_m"],
+            j.get("length_m", 0.0),
+            tuple(j.get("axis", (1.0, 0.0, 0.0))),
+        )
         for j in case["joint"]
     ]
     load = case["load"]
-    text = shaft_urdf(joints[0], joints[1], load["point_m"], load["force_N"], load["torque_Nm"],
-                      name=case["id"])
+    text = shaft_urdf(
+        joints[0], joints[1], load["point_m"], load["force_N"], load["torque_Nm"], name=case["id"]
+    )
     return clearance_pin.loads(text, source=f"younes2013 case {case['id']}")
 
 
@@ -76,7 +83,7 @@ def matching_digits(computed: float, published: float) -> int:
     scale = max(abs(published), abs(computed))
     if scale < 1e-12:
         return 16 if abs(computed - published) < 1e-12 else 0
-    return max(0, int(math.floor(-math.log10(abs(computed - published) / scale))))
+    return max(0, math.floor(-math.log10(abs(computed - published) / scale)))
 
 
 def solve_case(case: dict, check: bool) -> dict:
@@ -111,9 +118,14 @@ def compare(case: dict, record: dict) -> list[str]:
         if expected:
             lines.append(f"  {joint} ref     " + " ".join(f"{v:+.10f}" for v in expected[joint]))
             paper = expected[f"paper_{joint}"]
-            digits = [matching_digits(c, p) if abs(p) > 1e-200 else 0 for c, p in zip(computed, paper)]
-            lines.append(f"  {joint} paper   " + " ".join(f"{v:+.10g}" for v in paper)
-                         + f"   digits: {digits}")
+            digits = [
+                matching_digits(c, p) if abs(p) > 1e-200 else 0 for c, p in zip(computed, paper)
+            ]
+            lines.append(
+                f"  {joint} paper   "
+                + " ".join(f"{v:+.10g}" for v in paper)
+                + f"   digits: {digits}"
+            )
             error_mm = max(abs(c - e) for c, e in zip(computed[:3], expected[joint][:3]))
             error_rad = max(abs(c - e) for c, e in zip(computed[3:], expected[joint][3:]))
             verdict = "ok" if error_mm <= TOLERANCE_MM and error_rad <= TOLERANCE_RAD else "FAIL"
@@ -123,14 +135,20 @@ def compare(case: dict, record: dict) -> list[str]:
     if expected:
         energy += f", ref {expected['energy']:.12f}"
     lines.append(energy)
-    lines.append(f"  contacts {lin['contacts']}  exact - linear: "
-                 f"{record['exact_minus_linear']['translation_mm']:.3e} mm, "
-                 f"{record['exact_minus_linear']['rotation_rad']:.3e} rad")
-    lines.append(f"  solve {lin['solve_time_s'] * 1e3:.2f} ms (linear, incl. first build), "
-                 f"{record['exact']['solve_time_s'] * 1e3:.2f} ms (exact, incl. build)")
+    lines.append(
+        f"  contacts {lin['contacts']}  exact - linear: "
+        f"{record['exact_minus_linear']['translation_mm']:.3e} mm, "
+        f"{record['exact_minus_linear']['rotation_rad']:.3e} rad"
+    )
+    lines.append(
+        f"  solve {lin['solve_time_s'] * 1e3:.2f} ms (linear, incl. first build), "
+        f"{record['exact']['solve_time_s'] * 1e3:.2f} ms (exact, incl. build)"
+    )
     if "check" in lin:
-        lines.append(f"  coal check: linear ok={lin['check']['ok']}, exact ok="
-                     f"{record['exact']['check']['ok']}")
+        lines.append(
+            f"  coal check: linear ok={lin['check']['ok']}, exact ok="
+            f"{record['exact']['check']['ok']}"
+        )
     return lines
 
 

@@ -9,6 +9,7 @@ each, so warm starts still chain inside a chunk.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from concurrent.futures import Executor
 from dataclasses import replace
@@ -121,9 +122,20 @@ def _solve_chunk(mechanism, cases, options: dict, errors: str, progress=None) ->
     return results
 
 
-def solve_many(mechanism, loads=None, configurations=None, *, exact: bool = False, gravity=None,
-               tol: float = 1e-12, backend: str = "auto", executor: Executor | None = None,
-               chunks: int | None = None, errors: str = "raise", progress: bool | None = None):
+def solve_many(
+    mechanism,
+    loads=None,
+    configurations=None,
+    *,
+    exact: bool = False,
+    gravity=None,
+    tol: float = 1e-12,
+    backend: str = "auto",
+    executor: Executor | None = None,
+    chunks: int | None = None,
+    errors: str = "raise",
+    progress: bool | None = None,
+):
     """Solve many load cases and/or nominal configurations of one mechanism.
 
     Args:
@@ -161,7 +173,8 @@ def solve_many(mechanism, loads=None, configurations=None, *, exact: bool = Fals
     bounds = np.linspace(0, len(cases), count + 1).astype(int)
     futures = [
         executor.submit(_solve_chunk, mechanism, cases[a:b], options, errors)
-        for a, b in zip(bounds[:-1], bounds[1:]) if b > a
+        for a, b in itertools.pairwise(bounds)
+        if b > a
     ]
     results = []
     for future in futures:
@@ -187,11 +200,15 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     import pinocchio as pin
 
     pin.framesForwardKinematics(mechanism.model, mechanism.data, configuration.q)
-    gradients = np.array([
-        load_gradient(gather_body_loads(mechanism.model, mechanism.data, loads,
-                                        mechanism.link_frames), maps.body_twist)
-        for loads in resolved
-    ])
+    gradients = np.array(
+        [
+            load_gradient(
+                gather_body_loads(mechanism.model, mechanism.data, loads, mechanism.link_frames),
+                maps.body_twist,
+            )
+            for loads in resolved
+        ]
+    )
     scaled = gradients * problem0.scale
     references = np.linalg.norm(scaled, axis=1)
     free = problem0.free_motions / problem0.scale[:, None]
@@ -201,17 +218,33 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     regular = (along_free <= UNBOUNDED_FRACTION * references) & (sigmas > 0.0)
     objectives = reduced / np.where(sigmas > 0.0, sigmas, 1.0)[:, None]
     warm = mechanism._solve_state[("warm", problem0.signature())]
-    y, multipliers, verified, worst = batched_newton(problem0.stack, objectives, warm.y,
-                                                     warm.multipliers, warm.signs)
+    y, multipliers, verified, worst = batched_newton(
+        problem0.stack, objectives, warm.y, warm.multipliers, warm.signs
+    )
     verified &= regular
     x = (y @ problem0.basis.T) * problem0.scale
     items: list = []
     for i in range(len(cases)):
         if verified[i]:
-            problem = replace(problem0, gradient=gradients[i], objective=objectives[i],
-                              objective_scale=float(sigmas[i]))
-            items.append(_lazy_item(mechanism, configuration, maps, problem, y[i],
-                                    multipliers[i], warm.signs, worst[i], _assemble))
+            problem = replace(
+                problem0,
+                gradient=gradients[i],
+                objective=objectives[i],
+                objective_scale=float(sigmas[i]),
+            )
+            items.append(
+                _lazy_item(
+                    mechanism,
+                    configuration,
+                    maps,
+                    problem,
+                    y[i],
+                    multipliers[i],
+                    warm.signs,
+                    worst[i],
+                    _assemble,
+                )
+            )
         else:
             items.append(None)
     bar.update(int(verified.sum()))
@@ -224,10 +257,28 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
 
 def _lazy_item(mechanism, configuration, maps, problem, y, multipliers, signs, worst, assemble):
     def build():
-        return assemble(mechanism, configuration, maps, problem, y, multipliers, signs, "optimal",
-                        "batched Newton", 0, True, 0.0, 0.0,
-                        {"stationarity": float(worst), "feasibility": 0.0,
-                         "complementarity": 0.0, "dual_infeasibility": 0.0})
+        return assemble(
+            mechanism,
+            configuration,
+            maps,
+            problem,
+            y,
+            multipliers,
+            signs,
+            "optimal",
+            "batched Newton",
+            0,
+            True,
+            0.0,
+            0.0,
+            {
+                "stationarity": float(worst),
+                "feasibility": 0.0,
+                "complementarity": 0.0,
+                "dual_infeasibility": 0.0,
+            },
+        )
+
     return build
 
 

@@ -20,8 +20,14 @@ import numpy as np
 from .kkt import ACCEPT_KKT, StackedContacts
 
 
-def batched_newton(stack: StackedContacts, objectives: np.ndarray, y0: np.ndarray,
-                   multipliers0: np.ndarray, signs: np.ndarray, iterations: int = 8):
+def batched_newton(
+    stack: StackedContacts,
+    objectives: np.ndarray,
+    y0: np.ndarray,
+    multipliers0: np.ndarray,
+    signs: np.ndarray,
+    iterations: int = 8,
+):
     """Solve the KKT systems of the contact set of (y0, multipliers0) for every row of objectives.
 
     Args:
@@ -43,7 +49,8 @@ def batched_newton(stack: StackedContacts, objectives: np.ndarray, y0: np.ndarra
         values, gradients = _evaluate(stack, y, signs)
         gradients = gradients[:, active, :]
         residual = np.concatenate(
-            [objectives + np.einsum("nar,na->nr", gradients, lam), values[:, active]], axis=1)
+            [objectives + np.einsum("nar,na->nr", gradients, lam), values[:, active]], axis=1
+        )
         full = np.zeros((count_cases, stack.count))
         full[:, active] = lam
         lam_rows = 2.0 * full[:, stack.row_contact] * row_weights
@@ -68,8 +75,9 @@ def _evaluate(stack: StackedContacts, y: np.ndarray, signs: np.ndarray):
     squares = np.add.reduceat(image * image, stack.starts, axis=1)
     values = np.where(stack.is_norm, squares, signs * image[:, stack.starts]) - 1.0
     weights = np.where(stack.row_is_norm, 2.0 * image, signs[stack.row_contact])
-    gradients = np.add.reduceat(stack.matrix[None, :, :] * weights[:, :, None], stack.starts,
-                                axis=1)
+    gradients = np.add.reduceat(
+        stack.matrix[None, :, :] * weights[:, :, None], stack.starts, axis=1
+    )
     return values, gradients
 
 
@@ -83,5 +91,7 @@ def _verify(stack: StackedContacts, objectives, y, multipliers, signs):
     complementarity = np.abs(multipliers * phi).max(axis=1)
     dual = np.maximum(-multipliers, 0.0).max(axis=1)
     worst = np.maximum.reduce([stationarity, feasibility, complementarity, dual])
-    verified = (worst <= ACCEPT_KKT) & (multipliers.min(axis=1) >= -1e-12) & (phi.max(axis=1) <= 1e-13)
+    verified = (
+        (worst <= ACCEPT_KKT) & (multipliers.min(axis=1) >= -1e-12) & (phi.max(axis=1) <= 1e-13)
+    )
     return verified, worst

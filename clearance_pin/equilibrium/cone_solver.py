@@ -88,16 +88,25 @@ class IpoptBackend:
         constraints, lower = [], []
         row = 0
         for shape, k in shapes:
-            image = ca.mtimes(p_matrix[row:row + k, :], y)
+            image = ca.mtimes(p_matrix[row : row + k, :], y)
             row += k
             constraints.append(ca.sumsqr(image) if shape == "norm" else image)
             lower.append(-ca.inf if shape == "norm" else -1.0)
-        nlp = {"x": y, "p": ca.vertcat(f, ca.vec(p_matrix)), "f": ca.dot(f, y),
-               "g": ca.vertcat(*constraints) if constraints else ca.SX(0, 1)}
+        nlp = {
+            "x": y,
+            "p": ca.vertcat(f, ca.vec(p_matrix)),
+            "f": ca.dot(f, y),
+            "g": ca.vertcat(*constraints) if constraints else ca.SX(0, 1),
+        }
         options = {
-            "print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
-            "ipopt.tol": tol, "ipopt.acceptable_tol": tol, "ipopt.bound_relax_factor": 0.0,
-            "ipopt.max_iter": max_iter, "ipopt.mu_strategy": "adaptive",
+            "print_time": False,
+            "ipopt.print_level": 0,
+            "ipopt.sb": "yes",
+            "ipopt.tol": tol,
+            "ipopt.acceptable_tol": tol,
+            "ipopt.bound_relax_factor": 0.0,
+            "ipopt.max_iter": max_iter,
+            "ipopt.mu_strategy": "adaptive",
         }
         self._solver = ca.nlpsol("clearance_cone", "ipopt", nlp, options)
         self._lower = np.array(lower, dtype=float)
@@ -107,8 +116,9 @@ class IpoptBackend:
     def run(self, problem: ReducedProblem):
         """(y, multipliers, status, iterations) from the nominal start y = 0."""
         parameters = np.concatenate([problem.objective, problem.stack.matrix.ravel(order="F")])
-        result = self._solver(x0=np.zeros(problem.size), p=parameters, lbg=self._lower,
-                              ubg=self._upper)
+        result = self._solver(
+            x0=np.zeros(problem.size), p=parameters, lbg=self._lower, ubg=self._upper
+        )
         stats = self._solver.stats()
         y = np.asarray(result["x"], dtype=float).ravel()
         lam = np.abs(np.asarray(result["lam_g"], dtype=float).ravel())
@@ -122,7 +132,7 @@ class ClarabelBackend:
 
     def __init__(self, signature: tuple, tol: float = 1e-12):
         import clarabel
-        import scipy.sparse as sparse
+        from scipy import sparse
 
         self._clarabel, self._sparse = clarabel, sparse
         size, shapes = signature
@@ -156,8 +166,9 @@ class ClarabelBackend:
                 blocks.append(np.vstack([matrix, -matrix]))
                 b.extend([1.0, 1.0])
         a_matrix = self._sparse.csc_matrix(np.vstack(blocks))
-        solver = self._clarabel.DefaultSolver(self._zero, problem.objective, a_matrix,
-                                              np.array(b), self._cones, self._settings)
+        solver = self._clarabel.DefaultSolver(
+            self._zero, problem.objective, a_matrix, np.array(b), self._cones, self._settings
+        )
         result = solver.solve()
         y = np.asarray(result.x, dtype=float)
         z = np.asarray(result.z, dtype=float)
@@ -197,8 +208,9 @@ def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = Non
         verified = active_set_solve(stack, problem.objective, warm.y, warm.multipliers, warm.signs)
         if verified is not None:
             y, lam, signs, measured = verified
-            return ConeSolution(y, lam, signs, "warm Newton", 0, True, measured,
-                                time.perf_counter() - started)
+            return ConeSolution(
+                y, lam, signs, "warm Newton", 0, True, measured, time.perf_counter() - started
+            )
     y, lam, status, iterations = backend.run(problem)
     signs = stack.sides(y)
     phi = stack.values(y, None)
@@ -206,8 +218,10 @@ def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = Non
     verified = active_set_solve(stack, problem.objective, y, lam, signs)
     if verified is not None:
         y, lam, signs, measured = verified
-        return ConeSolution(y, lam, signs, status, iterations, True, measured,
-                            time.perf_counter() - started)
+        return ConeSolution(
+            y, lam, signs, status, iterations, True, measured, time.perf_counter() - started
+        )
     measured = residuals(stack, problem.objective, y, lam, signs)
-    return ConeSolution(y, lam, signs, status, iterations, False, measured,
-                        time.perf_counter() - started)
+    return ConeSolution(
+        y, lam, signs, status, iterations, False, measured, time.perf_counter() - started
+    )

@@ -48,8 +48,12 @@ class ExactProblem:
         load_params = ca.SX.sym("loads", 15, nbody)
         loops = mechanism.loop_joints
         loop_b = ca.SX.sym("loop_b", 12, max(len(loops), 1))
-        contacts = [(name, point) for name, joint in mechanism.joints.items()
-                    for point in joint.clearance.contacts if point.bound > 0.0]
+        contacts = [
+            (name, point)
+            for name, joint in mechanism.joints.items()
+            for point in joint.clearance.contacts
+            if point.bound > 0.0
+        ]
         bounds = ca.SX.sym("bounds", len(contacts))
         gauge_count = linear_problem.free_motions.shape[1]
         gauge = ca.SX.sym("gauge", n, gauge_count)
@@ -59,7 +63,7 @@ class ExactProblem:
         for joint in mechanism.tree_joints:
             basis = tree_joint_basis(joint)
             k = basis.shape[1]
-            torsor = ca.mtimes(ca.DM(basis), x[offset:offset + k]) if k else ca.SX.zeros(6)
+            torsor = ca.mtimes(ca.DM(basis), x[offset : offset + k]) if k else ca.SX.zeros(6)
             offset += k
             R_t, p_t = se3_exp(torsor)
             relative[joint.name] = (R_t, p_t)
@@ -100,26 +104,46 @@ class ExactProblem:
         self.shapes = [point.shape for _, point in contacts]
         self.contacts = contacts
         self.n_equality = len(kept) + gauge_count
-        parameters = ca.vertcat(q, scale, ca.vec(load_params), ca.vec(loop_b), bounds,
-                                ca.vec(gauge), sigma)
-        self.parameter_sizes = (model.nq, n, 15 * nbody, 12 * max(len(loops), 1), len(contacts),
-                                n * gauge_count, 1)
+        parameters = ca.vertcat(
+            q, scale, ca.vec(load_params), ca.vec(loop_b), bounds, ca.vec(gauge), sigma
+        )
+        self.parameter_sizes = (
+            model.nq,
+            n,
+            15 * nbody,
+            12 * max(len(loops), 1),
+            len(contacts),
+            n * gauge_count,
+            1,
+        )
         nlp = {"x": z, "p": parameters, "f": energy / sigma, "g": constraints}
-        options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
-                   "ipopt.tol": tol, "ipopt.acceptable_tol": tol, "ipopt.max_iter": 300,
-                   "ipopt.bound_relax_factor": 0.0, "ipopt.mu_strategy": "adaptive"}
+        options = {
+            "print_time": False,
+            "ipopt.print_level": 0,
+            "ipopt.sb": "yes",
+            "ipopt.tol": tol,
+            "ipopt.acceptable_tol": tol,
+            "ipopt.max_iter": 300,
+            "ipopt.bound_relax_factor": 0.0,
+            "ipopt.mu_strategy": "adaptive",
+        }
         self.solver = ca.nlpsol("clearance_exact", "ipopt", nlp, options)
         lower = [-ca.inf if s == "norm" else -1.0 for s in self.shapes] + [0.0] * self.n_equality
         upper = [1.0] * len(self.shapes) + [0.0] * self.n_equality
         self.lower, self.upper = np.array(lower), np.array(upper)
         outputs = [ca.horzcat(R, p) for R, p in placed] + [
-            ca.horzcat(*relative[name]) for name in mechanism.joints]
+            ca.horzcat(*relative[name]) for name in mechanism.joints
+        ]
         self.evaluate = ca.Function("exact_pose", [z, parameters], outputs)
         jacobian_g = ca.jacobian(constraints, z)
-        self.derivatives = ca.Function("exact_kkt", [z, parameters],
-                                       [ca.gradient(energy, z), jacobian_g, energy])
-        self.closure = ca.Function("exact_closure", [z, parameters],
-                                   [ca.vertcat(*equality) if equality else ca.SX.zeros(1)])
+        self.derivatives = ca.Function(
+            "exact_kkt", [z, parameters], [ca.gradient(energy, z), jacobian_g, energy]
+        )
+        self.closure = ca.Function(
+            "exact_closure",
+            [z, parameters],
+            [ca.vertcat(*equality) if equality else ca.SX.zeros(1)],
+        )
         self.build_time = time.perf_counter() - started
 
     def parameters(self, configuration, scale, body_loads, linear_problem, sigma) -> np.ndarray:
@@ -139,8 +163,17 @@ class ExactProblem:
         gauge = linear_problem.free_motions / scale[:, None]
         if gauge.size:
             gauge = gauge / np.linalg.norm(gauge, axis=0)
-        return np.concatenate([configuration.q, scale, loads.ravel(order="F"),
-                               rotations.ravel(order="F"), bounds, gauge.ravel(order="F"), [sigma]])
+        return np.concatenate(
+            [
+                configuration.q,
+                scale,
+                loads.ravel(order="F"),
+                rotations.ravel(order="F"),
+                bounds,
+                gauge.ravel(order="F"),
+                [sigma],
+            ]
+        )
 
 
 def _loop_equalities(mechanism, relative) -> list:
@@ -159,8 +192,10 @@ def _loop_equalities(mechanism, relative) -> list:
             vee = rotation_vee_antisym(R)
             rows.extend([vee[0], vee[1], vee[2]])
         elif rotations:
-            raise UnsupportedError(f"loop joint {loop.name!r}: rigid rotations {sorted(rotations)} "
-                                   "have no exact form; use beta+gamma or all three")
+            raise UnsupportedError(
+                f"loop joint {loop.name!r}: rigid rotations {sorted(rotations)} "
+                "have no exact form; use beta+gamma or all three"
+            )
         for point in loop.clearance.contacts:
             if point.bound == 0.0:
                 r = ca.DM(point.point)
@@ -173,7 +208,7 @@ def independent_rows(equalities: np.ndarray, scale: np.ndarray) -> tuple[int, ..
     """Indices of a maximal independent subset of the rows of E Z (redundant closure dropped)."""
     kept: list[int] = []
     for i in range(equalities.shape[0]):
-        trial = equalities[kept + [i]] * scale
+        trial = equalities[[*kept, i]] * scale
         if np.linalg.matrix_rank(trial, tol=1e-10 * max(1.0, np.abs(trial).max())) == len(kept) + 1:
             kept.append(i)
     return tuple(kept)
@@ -183,7 +218,7 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     """Solve the exact model from the linear equilibrium ``linear``; residuals measured."""
     from .solve import linear_setup
 
-    configuration, maps, body_loads, problem = linear_setup(mechanism, loads, q)
+    configuration, _maps, body_loads, problem = linear_setup(mechanism, loads, q)
     rows = independent_rows(problem.equalities, problem.scale)
     key = ("exact", problem.signature(), problem.free_motions.shape[1], rows, tol)
     cache = mechanism._solve_state
@@ -206,8 +241,11 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     equilibrium.linear = linear
     equilibrium.difference = _difference(equilibrium, linear)
     if not equilibrium.ok:
-        raise SolverError("the exact solve did not reach a verified optimum",
-                          stats["return_status"], equilibrium.residuals)
+        raise SolverError(
+            "the exact solve did not reach a verified optimum",
+            stats["return_status"],
+            equilibrium.residuals,
+        )
     return equilibrium
 
 
@@ -218,14 +256,14 @@ def _coordinates(linear: Equilibrium, joint) -> np.ndarray:
 def _assemble(mechanism, exact: ExactProblem, problem, configuration, z, lam, params, sigma, stats):
     model = mechanism.model
     outputs = [np.asarray(o) for o in exact.evaluate(z, params)]
-    placed = outputs[:model.njoints]
-    relatives = dict(zip(mechanism.joints, outputs[model.njoints:]))
+    placed = outputs[: model.njoints]
+    relatives = dict(zip(mechanism.joints, outputs[model.njoints :]))
     torsors = {}
     x = problem.scale * z
     offset = 0
     for joint in mechanism.tree_joints:
         basis = tree_joint_basis(joint)
-        torsors[joint.name] = basis @ x[offset:offset + basis.shape[1]]
+        torsors[joint.name] = basis @ x[offset : offset + basis.shape[1]]
         offset += basis.shape[1]
     for loop in mechanism.loop_joints:
         M = relatives[loop.name]
@@ -267,30 +305,49 @@ def _assemble(mechanism, exact: ExactProblem, problem, configuration, z, lam, pa
     residuals = {
         "stationarity": float(np.max(np.abs(residual), initial=0.0)),
         "statics": float(np.linalg.norm(residual) / reference),
-        "dual_infeasibility": float(max(0.0, -min(
-            [lam[j] if s == "norm" else abs(lam[j]) for j, s in enumerate(exact.shapes)],
-            default=0.0))),
+        "dual_infeasibility": float(
+            max(
+                0.0,
+                -min(
+                    [lam[j] if s == "norm" else abs(lam[j]) for j, s in enumerate(exact.shapes)],
+                    default=0.0,
+                ),
+            )
+        ),
         "max_violation_m": violation,
         "max_violation_rel": max((max(-c.gap, 0.0) / c.clearance for c in contacts), default=0.0),
         "clearance_m": max((c.clearance for c in contacts), default=0.0),
         "closure": float(np.max(np.abs(np.asarray(exact.closure(z, params))), initial=0.0)),
     }
     return Equilibrium(
-        formulation="exact", torsors=torsors, body_motions=body_motions, contacts=tuple(contacts),
-        energy=float(energy.ravel()[0]), status="optimal", solver_status=stats["return_status"],
-        iterations=int(stats.get("iter_count", 0)), residuals=residuals,
-        free_motions=problem.free_descriptions, build_time=0.0, solve_time=0.0,
-        body_placements=tuple([pin.SE3.Identity()] + [
-            pin.SE3(placed[i][:, :3], placed[i][:, 3]) for i in range(1, model.njoints)]),
-        mechanism=mechanism, configuration=configuration,
+        formulation="exact",
+        torsors=torsors,
+        body_motions=body_motions,
+        contacts=tuple(contacts),
+        energy=float(energy.ravel()[0]),
+        status="optimal",
+        solver_status=stats["return_status"],
+        iterations=int(stats.get("iter_count", 0)),
+        residuals=residuals,
+        free_motions=problem.free_descriptions,
+        build_time=0.0,
+        solve_time=0.0,
+        body_placements=tuple(
+            [pin.SE3.Identity()]
+            + [pin.SE3(placed[i][:, :3], placed[i][:, 3]) for i in range(1, model.njoints)]
+        ),
+        mechanism=mechanism,
+        configuration=configuration,
     )
 
 
 def _difference(exact: Equilibrium, linear: Equilibrium) -> dict[str, float]:
-    translation = max(np.max(np.abs(exact.torsors[k][:3] - linear.torsors[k][:3]))
-                      for k in exact.torsors)
-    rotation = max(np.max(np.abs(exact.torsors[k][3:] - linear.torsors[k][3:]))
-                   for k in exact.torsors)
+    translation = max(
+        np.max(np.abs(exact.torsors[k][:3] - linear.torsors[k][:3])) for k in exact.torsors
+    )
+    rotation = max(
+        np.max(np.abs(exact.torsors[k][3:] - linear.torsors[k][3:])) for k in exact.torsors
+    )
     return {"translation_m": float(translation), "rotation_rad": float(rotation)}
 
 

@@ -38,8 +38,11 @@ class StackedContacts:
         self.count = len(matrices)
         self.matrix = np.vstack(matrices) if matrices else np.zeros((0, size))
         lengths = np.array([m.shape[0] for m in matrices], dtype=int)
-        self.starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(int) if matrices \
+        self.starts = (
+            np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(int)
+            if matrices
             else np.zeros(0, dtype=int)
+        )
         self.is_norm = np.array([s == "norm" for s in shapes], dtype=bool)
         self.row_contact = np.repeat(np.arange(self.count), lengths)
         self.row_is_norm = self.is_norm[self.row_contact] if self.count else np.zeros(0, bool)
@@ -89,8 +92,7 @@ def residuals(stack: StackedContacts, objective, y, multipliers, signs) -> dict[
     }
 
 
-def newton(stack: StackedContacts, objective, y, multipliers, signs, active,
-           iterations: int = 12):
+def newton(stack: StackedContacts, objective, y, multipliers, signs, active, iterations: int = 12):
     """Newton on the KKT system of ``active``; returns (y, lambda_active) or None."""
     size, count = stack.size, active.size
     kkt = np.zeros((size + count, size + count))
@@ -123,8 +125,9 @@ def newton(stack: StackedContacts, objective, y, multipliers, signs, active,
     return (y, lam) if np.abs(residual).max() < 1e-11 else None
 
 
-def active_set_solve(stack: StackedContacts, objective, y, multipliers, signs=None,
-                     rounds: int = 4):
+def active_set_solve(
+    stack: StackedContacts, objective, y, multipliers, signs=None, rounds: int = 4
+):
     """Verified active-set Newton from a guess (y, multipliers); None if it cannot be verified.
 
     The active set starts as the contacts in touch or carrying a multiplier; contacts whose

@@ -16,12 +16,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from ..numerics import cross
 import pinocchio as pin
 
 from ..errors import LoadError
 from ..model.loads import Gravity, Load, PointForce, Torque
+from ..numerics import cross
 
 
 @dataclass(frozen=True)
@@ -60,7 +59,9 @@ def gather_body_loads(
             for body in range(1, model.njoints):
                 inertia = model.inertias[body]
                 if inertia.mass > 0.0:
-                    _add_force(entry(body), data.oMi[body], inertia.lever, inertia.mass * load.acceleration)
+                    _add_force(
+                        entry(body), data.oMi[body], inertia.lever, inertia.mass * load.acceleration
+                    )
             continue
         if load.link not in link_frames:
             known = ", ".join(sorted(link_frames))
@@ -82,7 +83,9 @@ def gather_body_loads(
     }
 
 
-def _add_force(slot: list[np.ndarray], oMb: pin.SE3, point_in_body: np.ndarray, force: np.ndarray) -> None:
+def _add_force(
+    slot: list[np.ndarray], oMb: pin.SE3, point_in_body: np.ndarray, force: np.ndarray
+) -> None:
     world_point = oMb.act(point_in_body)
     slot[0] += force
     slot[1] += np.outer(force, point_in_body)

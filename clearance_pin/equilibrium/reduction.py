@@ -136,7 +136,9 @@ def closure_conditioning(scaled_rows: np.ndarray, rtol: float = 1e-10) -> float:
     return float(kept[-1] / singular[0])
 
 
-def reduce_geometry(maps: SmallDisplacementMaps, joints: dict, length_scale: float) -> ReducedGeometry:
+def reduce_geometry(
+    maps: SmallDisplacementMaps, joints: dict, length_scale: float
+) -> ReducedGeometry:
     """Steps 1-3 of the reduction, which do not depend on the load.
 
     Args:
@@ -166,12 +168,27 @@ def reduce_geometry(maps: SmallDisplacementMaps, joints: dict, length_scale: flo
         for i in range(free_x.shape[1])
     )
     stack = StackedContacts(matrices, [c.contact.shape for c in contacts], basis.shape[1])
-    return ReducedGeometry(scale, basis, tuple(contacts), equalities, free_x, free_z,
-                           descriptions, matrices, stack, conditioning)
+    return ReducedGeometry(
+        scale,
+        basis,
+        tuple(contacts),
+        equalities,
+        free_x,
+        free_z,
+        descriptions,
+        matrices,
+        stack,
+        conditioning,
+    )
 
 
-def with_load(geometry: ReducedGeometry, gradient: np.ndarray, maps: SmallDisplacementMaps,
-              joints: dict, length_scale: float) -> ReducedProblem:
+def with_load(
+    geometry: ReducedGeometry,
+    gradient: np.ndarray,
+    maps: SmallDisplacementMaps,
+    joints: dict,
+    length_scale: float,
+) -> ReducedProblem:
     """The reduced problem for one load: objective f and the check for unbounded loads.
 
     Raises:
@@ -191,14 +208,24 @@ def with_load(geometry: ReducedGeometry, gradient: np.ndarray, maps: SmallDispla
     sigma = float(np.linalg.norm(reduced_gradient))
     objective = reduced_gradient / sigma if sigma > 0.0 else reduced_gradient
     return ReducedProblem(
-        gradient, scale, geometry.basis, geometry.contacts, geometry.equalities,
-        geometry.free_motions, geometry.free_descriptions, objective, sigma,
-        geometry.contact_matrices, geometry.stack, geometry.conditioning,
+        gradient,
+        scale,
+        geometry.basis,
+        geometry.contacts,
+        geometry.equalities,
+        geometry.free_motions,
+        geometry.free_descriptions,
+        objective,
+        sigma,
+        geometry.contact_matrices,
+        geometry.stack,
+        geometry.conditioning,
     )
 
 
-def reduce(maps: SmallDisplacementMaps, joints: dict, gradient: np.ndarray,
-           length_scale: float) -> ReducedProblem:
+def reduce(
+    maps: SmallDisplacementMaps, joints: dict, gradient: np.ndarray, length_scale: float
+) -> ReducedProblem:
     """Assemble and reduce the small-displacement problem for one load (both stages)."""
     geometry = reduce_geometry(maps, joints, length_scale)
     return with_load(geometry, gradient, maps, joints, length_scale)
@@ -239,8 +266,9 @@ def _complement(basis: np.ndarray, dimension: int) -> np.ndarray:
     return null_space(basis.T)
 
 
-def describe_motion(maps: SmallDisplacementMaps, joints: dict, motion: np.ndarray,
-                    length_scale: float) -> list[str]:
+def describe_motion(
+    maps: SmallDisplacementMaps, joints: dict, motion: np.ndarray, length_scale: float
+) -> list[str]:
     """Name the joint components that a motion x moves, largest first.
 
     Rotations are weighted by the length scale so that translations and rotations compare.

@@ -112,7 +112,8 @@ class Equilibrium:
         r = self.residuals
         return (
             r.get("max_violation_rel", 0.0) <= FEASIBILITY_TOLERANCE
-            and r.get("closure", 0.0) <= FEASIBILITY_TOLERANCE * max(r.get("clearance_m", 0.0), 1e-12)
+            and r.get("closure", 0.0)
+            <= FEASIBILITY_TOLERANCE * max(r.get("clearance_m", 0.0), 1e-12)
             and r.get("statics", 0.0) <= STATICS_TOLERANCE
             and r.get("dual_infeasibility", 0.0) <= 1e-8
         )
@@ -143,8 +144,10 @@ class Equilibrium:
             twist = self.body_twists[body]
             return twist[:3] + np.cross(twist[3:], nominal.translation), twist[3:].copy()
         moved = self.body_placements[body] * model.frames[frame_id].placement
-        return (moved.translation - nominal.translation,
-                np.asarray(pin.log3(moved.rotation @ nominal.rotation.T)))
+        return (
+            moved.translation - nominal.translation,
+            np.asarray(pin.log3(moved.rotation @ nominal.rotation.T)),
+        )
 
     @property
     def active_contacts(self) -> tuple[Contact, ...]:
@@ -168,8 +171,13 @@ class Equilibrium:
                 name: _scaled_torsor(t, length).tolist() for name, t in self.torsors.items()
             },
             "contacts": [
-                {"joint": c.joint, "point": c.point, "active": c.active,
-                 "gap": c.gap * length, "force_N": c.force.tolist()}
+                {
+                    "joint": c.joint,
+                    "point": c.point,
+                    "active": c.active,
+                    "gap": c.gap * length,
+                    "force_N": c.force.tolist(),
+                }
                 for c in self.contacts
             ],
             "energy_J": self.energy,
@@ -186,10 +194,14 @@ class Equilibrium:
 
     def table(self, length: float = 1e6, unit: str = "um") -> str:
         """A readable report: torsors, contacts and forces, residuals."""
-        lines = [f"equilibrium ({self.formulation}): {self.status}, ok={self.ok}, "
-                 f"energy {self.energy:.6g} J"]
-        lines.append(f"{'joint':<14}{'u':>11}{'v':>11}{'w':>11}   [{unit}]"
-                     f"{'alpha':>12}{'beta':>12}{'gamma':>12}   [urad]")
+        lines = [
+            f"equilibrium ({self.formulation}): {self.status}, ok={self.ok}, "
+            f"energy {self.energy:.6g} J"
+        ]
+        lines.append(
+            f"{'joint':<14}{'u':>11}{'v':>11}{'w':>11}   [{unit}]"
+            f"{'alpha':>12}{'beta':>12}{'gamma':>12}   [urad]"
+        )
         for name, t in self.torsors.items():
             lin = "".join(f"{value * length:>11.4f}" for value in t[:3])
             ang = "".join(f"{value * 1e6:>12.4f}" for value in t[3:])
@@ -197,9 +209,11 @@ class Equilibrium:
         lines.append(f"{'contact':<22}{'gap [' + unit + ']':>14}{'force [N]':>12}  direction")
         for c in self.contacts:
             direction = c.force / c.force_magnitude if c.force_magnitude > 0 else c.force
-            lines.append(f"{c.label:<22}{c.gap * length:>14.4f}{c.force_magnitude:>12.5g}  "
-                         f"{np.array2string(direction, precision=3, suppress_small=True)}"
-                         f"{'  <- contact' if c.active else ''}")
+            lines.append(
+                f"{c.label:<22}{c.gap * length:>14.4f}{c.force_magnitude:>12.5g}  "
+                f"{np.array2string(direction, precision=3, suppress_small=True)}"
+                f"{'  <- contact' if c.active else ''}"
+            )
         if self.free_motions:
             lines.append("free (indeterminate, set to zero): " + " | ".join(self.free_motions))
         r = self.residuals

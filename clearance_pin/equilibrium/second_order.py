@@ -36,7 +36,9 @@ def relative_placements(equilibrium) -> dict[str, pin.SE3]:
         relative[joint.name] = parent_side.inverse() * (placed[i] * clearance)
     for loop in mechanism.loop_joints:
         frame_a, frame_b = model.frames[loop.frame_a], model.frames[loop.frame_b]
-        side_a = placed[frame_a.parentJoint] * frame_a.placement * pin.SE3(loop.rotation, np.zeros(3))
+        side_a = (
+            placed[frame_a.parentJoint] * frame_a.placement * pin.SE3(loop.rotation, np.zeros(3))
+        )
         side_b = placed[frame_b.parentJoint] * frame_b.placement * nominal.bMc[loop.name]
         relative[loop.name] = side_a.inverse() * side_b
     return relative
@@ -68,8 +70,13 @@ def second_order_terms(equilibrium) -> dict[str, float]:
     for name, joint in equilibrium.mechanism.joints.items():
         torsor = equilibrium.torsors[name]
         rotation = float(np.linalg.norm(torsor[3:]))
-        reach = max((float(np.linalg.norm(torsor[:3] + np.cross(torsor[3:], point.point)))
-                     for point in joint.clearance.contacts), default=float(np.linalg.norm(torsor[:3])))
+        reach = max(
+            (
+                float(np.linalg.norm(torsor[:3] + np.cross(torsor[3:], point.point)))
+                for point in joint.clearance.contacts
+            ),
+            default=float(np.linalg.norm(torsor[:3])),
+        )
         terms[name] = rotation * reach
     return terms
 

@@ -10,11 +10,10 @@ import time
 import warnings
 
 import numpy as np
-
-from ..numerics import cross
 import pinocchio as pin
 
 from ..errors import ConditioningWarning, SolverError
+from ..numerics import cross
 from .cone_solver import backend_for, solve_cone
 from .load_terms import gather_body_loads, load_gradient
 from .reduction import ReducedProblem, describe_motion, reduce_geometry, with_load
@@ -35,12 +34,14 @@ def linear_setup(mechanism, loads, q):
     cached = mechanism._solve_state.get(key)
     if cached is None:
         configuration = mechanism.configure(q)
-        maps = build_maps(mechanism.model, mechanism.data, mechanism.tree_joints,
-                          mechanism.loop_joints)
+        maps = build_maps(
+            mechanism.model, mechanism.data, mechanism.tree_joints, mechanism.loop_joints
+        )
         geometry = reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
         if len(mechanism._solve_state) > 64:
-            mechanism._solve_state = {k: v for k, v in mechanism._solve_state.items()
-                                      if k[0] != "geometry"}
+            mechanism._solve_state = {
+                k: v for k, v in mechanism._solve_state.items() if k[0] != "geometry"
+            }
         cached = mechanism._solve_state[key] = (configuration, maps, geometry)
     configuration, maps, geometry = cached
     pin.framesForwardKinematics(mechanism.model, mechanism.data, configuration.q)
@@ -50,17 +51,30 @@ def linear_setup(mechanism, loads, q):
     return configuration, maps, body_loads, problem
 
 
-def solve_linear(mechanism, loads, q=None, tol: float = 1e-12, backend: str = "auto",
-                 warm_start: bool = True) -> Equilibrium:
+def solve_linear(
+    mechanism, loads, q=None, tol: float = 1e-12, backend: str = "auto", warm_start: bool = True
+) -> Equilibrium:
     """Small-displacement equilibrium (METHOD.md section 1) with its residuals measured."""
     started = time.perf_counter()
     configuration, maps, _, problem = linear_setup(mechanism, loads, q)
     if problem.objective_scale == 0.0 or not problem.contacts or problem.size == 0:
         y = np.zeros(problem.size)
-        return _assemble(mechanism, configuration, maps, problem, y,
-                         np.zeros(len(problem.contacts)), np.ones(len(problem.contacts)),
-                         "indeterminate", "no load works on any admissible motion", 0, False, 0.0,
-                         time.perf_counter() - started, {})
+        return _assemble(
+            mechanism,
+            configuration,
+            maps,
+            problem,
+            y,
+            np.zeros(len(problem.contacts)),
+            np.ones(len(problem.contacts)),
+            "indeterminate",
+            "no load works on any admissible motion",
+            0,
+            False,
+            0.0,
+            time.perf_counter() - started,
+            {},
+        )
     built, built_now = backend_for(problem, backend, tol)
     warm_key = ("warm", problem.signature())
     warm = mechanism._solve_state.get(warm_key) if warm_start else None
@@ -73,26 +87,46 @@ def solve_linear(mechanism, loads, q=None, tol: float = 1e-12, backend: str = "a
         if np.max(problem.stack.values(centred, None), initial=0.0) <= 1e-13:
             solution.y = centred
     equilibrium = _assemble(
-        mechanism, configuration, maps, problem, solution.y, solution.multipliers, solution.signs,
-        "optimal", solution.status, solution.iterations, solution.polished,
-        built.build_time if built_now else 0.0, time.perf_counter() - started,
+        mechanism,
+        configuration,
+        maps,
+        problem,
+        solution.y,
+        solution.multipliers,
+        solution.signs,
+        "optimal",
+        solution.status,
+        solution.iterations,
+        solution.polished,
+        built.build_time if built_now else 0.0,
+        time.perf_counter() - started,
         solution.residuals,
     )
     if flat.shape[1]:
         equilibrium.free_motions = equilibrium.free_motions + tuple(
             "bounded but not loaded (the optimum is not unique; minimum-norm point returned): "
-            + "; ".join(describe_motion(maps, mechanism.joints, problem.x_from_y(flat[:, i]),
-                                        mechanism.length_scale()))
+            + "; ".join(
+                describe_motion(
+                    maps, mechanism.joints, problem.x_from_y(flat[:, i]), mechanism.length_scale()
+                )
+            )
             for i in range(flat.shape[1])
         )
     if problem.conditioning < CONDITIONING_WARNING:
-        warnings.warn(ConditioningWarning(
-            f"{mechanism.name}: the loop closure is nearly singular (conditioning "
-            f"{problem.conditioning:.1e}; a toggle or dead-centre position?): expect the answer "
-            f"to lose about {-np.log10(problem.conditioning):.0f} digits"), stacklevel=3)
+        warnings.warn(
+            ConditioningWarning(
+                f"{mechanism.name}: the loop closure is nearly singular (conditioning "
+                f"{problem.conditioning:.1e}; a toggle or dead-centre position?): expect the answer "
+                f"to lose about {-np.log10(problem.conditioning):.0f} digits"
+            ),
+            stacklevel=3,
+        )
     if not equilibrium.ok:
-        raise SolverError("the small-displacement solve did not reach a verified optimum",
-                          solution.status, equilibrium.residuals)
+        raise SolverError(
+            "the small-displacement solve did not reach a verified optimum",
+            solution.status,
+            equilibrium.residuals,
+        )
     return equilibrium
 
 
@@ -114,9 +148,22 @@ def flat_directions(problem: ReducedProblem, solution) -> np.ndarray:
     return null_space(rows / scale, rtol=1e-9) if rows.size else np.eye(problem.size)
 
 
-def _assemble(mechanism, configuration, maps: SmallDisplacementMaps, problem: ReducedProblem, y, multipliers,
-              signs, status, solver_status, iterations, polished, build_time, solve_time,
-              residuals) -> Equilibrium:
+def _assemble(
+    mechanism,
+    configuration,
+    maps: SmallDisplacementMaps,
+    problem: ReducedProblem,
+    y,
+    multipliers,
+    signs,
+    status,
+    solver_status,
+    iterations,
+    polished,
+    build_time,
+    solve_time,
+    residuals,
+) -> Equilibrium:
     x = problem.x_from_y(y)
     torsors = {name: maps.joint_torsor[name] @ x for name in mechanism.joints}
     model = mechanism.model
@@ -130,12 +177,14 @@ def _assemble(mechanism, configuration, maps: SmallDisplacementMaps, problem: Re
     residuals = dict(residuals)
     residuals["statics"] = statics_residual(problem, x, contacts)
     residuals["max_violation_m"] = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
-    residuals["max_violation_rel"] = max((max(-c.gap, 0.0) / c.clearance for c in contacts),
-                                         default=0.0)
+    residuals["max_violation_rel"] = max(
+        (max(-c.gap, 0.0) / c.clearance for c in contacts), default=0.0
+    )
     residuals["clearance_m"] = max((c.clearance for c in contacts), default=0.0)
     residuals["closure_conditioning"] = problem.conditioning
-    placements = tuple([oMi[0]] + [pin.exp6(pin.Motion(twists[i])) * oMi[i]
-                                   for i in range(1, model.njoints)])
+    placements = tuple(
+        [oMi[0]] + [pin.exp6(pin.Motion(twists[i])) * oMi[i] for i in range(1, model.njoints)]
+    )
     return Equilibrium(
         formulation="linear",
         torsors=torsors,
@@ -171,7 +220,9 @@ def _contacts(problem: ReducedProblem, x, multipliers, signs) -> tuple[Contact, 
             local = np.array([-problem.objective_scale * multipliers[j] * signs[j] / bound])
         force = np.zeros(3)
         force[list(point.components)] = local
-        active = gap <= ACTIVE_RELATIVE_GAP * bound or multipliers[j] > 0.0 and gap <= 1e-6 * bound
+        active = gap <= ACTIVE_RELATIVE_GAP * bound or (
+            multipliers[j] > 0.0 and gap <= 1e-6 * bound
+        )
         contacts.append(Contact(constraint.joint, point.name, gap, bound, force, bool(active)))
     return tuple(contacts)
 

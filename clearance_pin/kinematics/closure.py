@@ -57,7 +57,9 @@ def _axis_error(rotation: np.ndarray) -> np.ndarray:
     return np.array([-np.arctan2(moved[2], moved[0]), np.arctan2(moved[1], moved[0])])
 
 
-def close_loops(mechanism, q: np.ndarray, tol: float = 1e-13, max_iterations: int = 60) -> np.ndarray:
+def close_loops(
+    mechanism, q: np.ndarray, tol: float = 1e-13, max_iterations: int = 60
+) -> np.ndarray:
     """Solve the passive joints so that every loop closes; returns the closed configuration.
 
     Raises:
@@ -73,8 +75,11 @@ def close_loops(mechanism, q: np.ndarray, tol: float = 1e-13, max_iterations: in
     for _ in range(max_iterations):
         pin.framesForwardKinematics(model, data, q)
         residual, selections = closure_residual(mechanism, data)
-        weights = np.concatenate([_weights(rows, length) for _, rows, _ in selections]) \
-            if selections else np.zeros(0)
+        weights = (
+            np.concatenate([_weights(rows, length) for _, rows, _ in selections])
+            if selections
+            else np.zeros(0)
+        )
         residual_norm = float(np.max(np.abs(residual * weights), initial=0.0))
         if residual_norm <= tol * max(length, 1.0) or not passive:
             break
@@ -89,10 +94,13 @@ def close_loops(mechanism, q: np.ndarray, tol: float = 1e-13, max_iterations: in
         v[passive] = step
         q = pin.integrate(model, q, v)
     if residual_norm > 1e-9 * max(length, 1.0):
-        raise ModelError(mechanism.source, "<loop_joint>",
-                         f"the loops cannot be closed at this configuration (residual "
-                         f"{residual_norm:.3e} m after Gauss-Newton on the passive joints); check "
-                         "the driven values and the link lengths")
+        raise ModelError(
+            mechanism.source,
+            "<loop_joint>",
+            f"the loops cannot be closed at this configuration (residual "
+            f"{residual_norm:.3e} m after Gauss-Newton on the passive joints); check "
+            "the driven values and the link lengths",
+        )
     return q
 
 

@@ -5,5 +5,15 @@ from .joints import LoopJoint, TreeJoint
 from .loads import Gravity, PointForce, Torque
 from .model_file import load, loads
 
-__all__ = ["KINDS", "Clearance", "ContactPoint", "LoopJoint", "TreeJoint", "Gravity",
-           "PointForce", "Torque", "load", "loads"]
+__all__ = [
+    "KINDS",
+    "Clearance",
+    "ContactPoint",
+    "LoopJoint",
+    "TreeJoint",
+    "Gravity",
+    "PointForce",
+    "Torque",
+    "load",
+    "loads",
+]

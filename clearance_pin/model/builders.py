@@ -37,8 +37,14 @@ def _xyz(vector) -> str:
     return " ".join(repr(float(v)) for v in vector)
 
 
-def shaft_urdf(first: JointSpec, second: JointSpec, point=(0.0, 0.0, 0.0), force=(0.0, 0.0, 0.0),
-               torque=(0.0, 0.0, 0.0), name: str = "shaft") -> str:
+def shaft_urdf(
+    first: JointSpec,
+    second: JointSpec,
+    point=(0.0, 0.0, 0.0),
+    force=(0.0, 0.0, 0.0),
+    torque=(0.0, 0.0, 0.0),
+    name: str = "shaft",
+) -> str:
     """URDF text of a shaft on two parallel joints with a force at ``point`` and a torque.
 
     Args:

@@ -180,7 +180,9 @@ class Clearance:
             for y in ys:
                 for z in zs:
                     label = f"({_sign(x)}{_sign(y)}{_sign(z)})"
-                    points.append(ContactPoint(f"corner{label}.y", (x, y, z), (1,), "abs", self.radial))
+                    points.append(
+                        ContactPoint(f"corner{label}.y", (x, y, z), (1,), "abs", self.radial)
+                    )
                     points.append(ContactPoint(f"corner{label}.z", (x, y, z), (2,), "abs", play_z))
         return points
 

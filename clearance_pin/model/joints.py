@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .clearance import ALPHA, U, Clearance
+from .clearance import ALPHA, Clearance, U
 
 
 @dataclass(frozen=True)
@@ -88,11 +88,17 @@ def rotation_x_to(axis: np.ndarray) -> np.ndarray:
 
 
 MOTION_COMPONENT_BY_PIN_JOINT = {
-    "JointModelRX": ALPHA, "JointModelRY": ALPHA, "JointModelRZ": ALPHA,
+    "JointModelRX": ALPHA,
+    "JointModelRY": ALPHA,
+    "JointModelRZ": ALPHA,
     "JointModelRevoluteUnaligned": ALPHA,
-    "JointModelRUBX": ALPHA, "JointModelRUBY": ALPHA, "JointModelRUBZ": ALPHA,
+    "JointModelRUBX": ALPHA,
+    "JointModelRUBY": ALPHA,
+    "JointModelRUBZ": ALPHA,
     "JointModelRevoluteUnboundedUnaligned": ALPHA,
-    "JointModelPX": U, "JointModelPY": U, "JointModelPZ": U,
+    "JointModelPX": U,
+    "JointModelPY": U,
+    "JointModelPZ": U,
     "JointModelPrismaticUnaligned": U,
     "JointModelFreeFlyer": None,
 }

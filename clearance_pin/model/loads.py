@@ -55,7 +55,9 @@ class Torque:
     torque: np.ndarray
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "torque", _vector3(f"torque on {self.link!r}", "torque", self.torque))
+        object.__setattr__(
+            self, "torque", _vector3(f"torque on {self.link!r}", "torque", self.torque)
+        )
 
 
 @dataclass(frozen=True)
@@ -71,5 +73,3 @@ class Gravity:
 
 
 Load = PointForce | Torque | Gravity
-
-

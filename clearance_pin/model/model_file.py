@@ -23,15 +23,37 @@ from .loads import Gravity, PointForce, Torque
 
 BLOCK = "clearance_pin"
 CLEARANCE_ATTRIBUTES = {
-    "radial_clearance": "radial", "length": "length", "axial_clearance": "axial",
-    "play_z": "play_z", "width": "width", "height": "height",
+    "radial_clearance": "radial",
+    "length": "length",
+    "axial_clearance": "axial",
+    "play_z": "play_z",
+    "width": "width",
+    "height": "height",
 }
-JOINT_ATTRIBUTES = {"name", "type", "diametral_clearance", "driven", "q", "axis",
-                    *CLEARANCE_ATTRIBUTES}
-LOOP_ATTRIBUTES = {"name", "type", "frame_a", "frame_b", "diametral_clearance", "axis",
-                   *CLEARANCE_ATTRIBUTES}
-IDEAL_KIND_OF_URDF = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic",
-                      "floating": "free"}
+JOINT_ATTRIBUTES = {
+    "name",
+    "type",
+    "diametral_clearance",
+    "driven",
+    "q",
+    "axis",
+    *CLEARANCE_ATTRIBUTES,
+}
+LOOP_ATTRIBUTES = {
+    "name",
+    "type",
+    "frame_a",
+    "frame_b",
+    "diametral_clearance",
+    "axis",
+    *CLEARANCE_ATTRIBUTES,
+}
+IDEAL_KIND_OF_URDF = {
+    "revolute": "revolute",
+    "continuous": "revolute",
+    "prismatic": "prismatic",
+    "floating": "free",
+}
 
 
 def load(path: str | Path):
@@ -67,8 +89,17 @@ def loads(text: str, source: str = "<string>", mesh_dir: Path | None = None):
         from ..tolerance.dimensions import parse_dimensions
 
         dimensions = parse_dimensions(source, block, model)
-    mechanism = Mechanism(model, tree_joints, loop_joints, q, forces, gravity, source=source,
-                          name=reader.root.get("name", ""), collision_model=collision)
+    mechanism = Mechanism(
+        model,
+        tree_joints,
+        loop_joints,
+        q,
+        forces,
+        gravity,
+        source=source,
+        name=reader.root.get("name", ""),
+        collision_model=collision,
+    )
     mechanism.dimensions = dimensions
     return mechanism
 
@@ -96,7 +127,8 @@ class _Reader:
             child_link = child.get("link") if child is not None else None
             if child_link in parents:
                 raise ModelError(
-                    source, f"<joint name='{name}'>",
+                    source,
+                    f"<joint name='{name}'>",
                     f"link {child_link!r} is already the child of joint {parents[child_link]!r}: a "
                     "URDF is a tree, and Pinocchio would silently corrupt the model. Declare the "
                     "second joint as a <loop_joint> in the <clearance_pin> block.",
@@ -108,7 +140,9 @@ class _Reader:
         try:
             return pin.buildModelFromXML(self.text)
         except (RuntimeError, ValueError) as exc:
-            raise ModelError(self.source, "<robot>", f"Pinocchio cannot build the URDF: {exc}") from None
+            raise ModelError(
+                self.source, "<robot>", f"Pinocchio cannot build the URDF: {exc}"
+            ) from None
 
     def collision_model(self, model: pin.Model, mesh_dir: Path | None):
         if self.root.find(".//collision") is None:
@@ -127,8 +161,11 @@ class _Reader:
         allowed = {"joint", "loop_joint", "force", "torque", "gravity", "dimension"}
         for child in block:
             if child.tag not in allowed:
-                raise ModelError(self.source, f"<{child.tag}>",
-                                 f"unknown element in <{BLOCK}>; expected one of {sorted(allowed)}")
+                raise ModelError(
+                    self.source,
+                    f"<{child.tag}>",
+                    f"unknown element in <{BLOCK}>; expected one of {sorted(allowed)}",
+                )
         return block
 
     # -- joints ---------------------------------------------------------------------------
@@ -143,12 +180,20 @@ class _Reader:
             if name in declared:
                 raise ModelError(self.source, label, "declared twice")
             if name not in self.urdf_joints:
-                raise ModelError(self.source, label, f"no URDF joint is called {name!r}; the URDF "
-                                 f"joints are: {', '.join(self.urdf_joints) or 'none'}")
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"no URDF joint is called {name!r}; the URDF "
+                    f"joints are: {', '.join(self.urdf_joints) or 'none'}",
+                )
             if self.urdf_joints[name].get("type") == "fixed":
-                raise ModelError(self.source, label, "the URDF joint is fixed: Pinocchio merges its "
-                                 "two links into one body, so it cannot carry play. Give it type "
-                                 "'floating' (any play) or 'revolute' in the URDF.")
+                raise ModelError(
+                    self.source,
+                    label,
+                    "the URDF joint is fixed: Pinocchio merges its "
+                    "two links into one body, so it cannot carry play. Give it type "
+                    "'floating' (any play) or 'revolute' in the URDF.",
+                )
             declared[name] = element
         q = pin.neutral(model)
         joints = []
@@ -160,25 +205,41 @@ class _Reader:
             element = declared.get(name)
             label = _label(element) if element is not None else f"<joint name='{name}'>"
             if shortname not in MOTION_COMPONENT_BY_PIN_JOINT:
-                raise ModelError(self.source, label, f"joint type {urdf_type!r} ({shortname}) is "
-                                 "not supported; use revolute, continuous, prismatic or floating")
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"joint type {urdf_type!r} ({shortname}) is "
+                    "not supported; use revolute, continuous, prismatic or floating",
+                )
             motion = MOTION_COMPONENT_BY_PIN_JOINT[shortname]
             if motion is None:
                 axis = _vector(self.source, element, "axis", default=(1.0, 0.0, 0.0))
             else:
                 if element is not None and element.get("axis") is not None:
-                    raise ModelError(self.source, label, "the axis of a revolute or prismatic joint "
-                                     "is the URDF joint's <axis>; remove the attribute")
+                    raise ModelError(
+                        self.source,
+                        label,
+                        "the axis of a revolute or prismatic joint "
+                        "is the URDF joint's <axis>; remove the attribute",
+                    )
                 axis = _pin_axis(pin_joint)
             clearance = self._clearance(element, label, IDEAL_KIND_OF_URDF.get(urdf_type, "free"))
             if motion is not None and motion not in clearance.free_components:
-                raise ModelError(self.source, label, f"a {clearance.kind} clearance does not allow "
-                                 f"the motion of the URDF {urdf_type} joint")
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"a {clearance.kind} clearance does not allow "
+                    f"the motion of the URDF {urdf_type} joint",
+                )
             driven = _boolean(self.source, element, "driven", False)
             if driven and motion is None:
-                raise ModelError(self.source, label, "a floating joint has no single motion to drive")
+                raise ModelError(
+                    self.source, label, "a floating joint has no single motion to drive"
+                )
             if element is not None and element.get("q") is not None:
-                _set_nominal(self.source, label, model, joint_id, q, _number(self.source, element, "q"))
+                _set_nominal(
+                    self.source, label, model, joint_id, q, _number(self.source, element, "q")
+                )
             joints.append(TreeJoint(name, joint_id, clearance, rotation_x_to(axis), motion, driven))
         return tuple(joints), q
 
@@ -201,12 +262,19 @@ class _Reader:
                     raise ModelError(self.source, label, f"needs {key} (a link or frame name)")
                 if not model.existFrame(frame):
                     known = ", ".join(sorted({f.name for f in model.frames}))
-                    raise ModelError(self.source, label, f"unknown frame {frame!r} ({key}); the "
-                                     f"frames are: {known}")
+                    raise ModelError(
+                        self.source,
+                        label,
+                        f"unknown frame {frame!r} ({key}); the frames are: {known}",
+                    )
                 frames.append(model.getFrameId(frame))
             if model.frames[frames[0]].parentJoint == model.frames[frames[1]].parentJoint:
-                raise ModelError(self.source, label, "frame_a and frame_b are on the same body: a "
-                                 "loop joint must join two different bodies")
+                raise ModelError(
+                    self.source,
+                    label,
+                    "frame_a and frame_b are on the same body: a "
+                    "loop joint must join two different bodies",
+                )
             kind = element.get("type")
             if kind is None:
                 raise ModelError(self.source, label, f"needs a type, one of {KINDS}")
@@ -217,8 +285,9 @@ class _Reader:
 
     def _clearance(self, element, label: str, default_kind: str) -> Clearance:
         if element is None or element.get("type") is None:
-            if element is not None and any(element.get(a) for a in (*CLEARANCE_ATTRIBUTES,
-                                                                   "diametral_clearance")):
+            if element is not None and any(
+                element.get(a) for a in (*CLEARANCE_ATTRIBUTES, "diametral_clearance")
+            ):
                 raise ModelError(self.source, label, f"clearances need a type, one of {KINDS}")
             return ideal(default_kind)
         kind = element.get("type")
@@ -230,16 +299,24 @@ class _Reader:
                 values[field_name] = _number(self.source, element, attribute, nonnegative=True)
         if element.get("diametral_clearance") is not None:
             if "radial" in values:
-                raise ModelError(self.source, label, "give radial_clearance or "
-                                 "diametral_clearance, not both")
-            values["radial"] = 0.5 * _number(self.source, element, "diametral_clearance",
-                                             nonnegative=True)
+                raise ModelError(
+                    self.source, label, "give radial_clearance or diametral_clearance, not both"
+                )
+            values["radial"] = 0.5 * _number(
+                self.source, element, "diametral_clearance", nonnegative=True
+            )
         if kind in ("cylindrical", "revolute", "prismatic") and values.get("length", 0.0) <= 0.0:
-            raise ModelError(self.source, label, f"a {kind} joint needs length > 0 [m] (the journal "
-                             "or block length)")
+            raise ModelError(
+                self.source,
+                label,
+                f"a {kind} joint needs length > 0 [m] (the journal or block length)",
+            )
         if kind not in ("free", "rigid") and "radial" not in values:
-            raise ModelError(self.source, label, "needs radial_clearance or diametral_clearance [m] "
-                             "(0 for an ideal joint)")
+            raise ModelError(
+                self.source,
+                label,
+                "needs radial_clearance or diametral_clearance [m] (0 for an ideal joint)",
+            )
         try:
             return Clearance(kind, **values)
         except ValueError as exc:
@@ -256,13 +333,17 @@ class _Reader:
             _check_attributes(self.source, element, {"link", "point", "value"})
             link = element.get("link")
             if link not in links:
-                raise ModelError(self.source, label, f"unknown link {link!r}; the links are: "
-                                 f"{', '.join(sorted(links))}")
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"unknown link {link!r}; the links are: {', '.join(sorted(links))}",
+                )
             value = _vector(self.source, element, "value", allow_zero=True)
             try:
                 if element.tag == "force":
-                    point = _vector(self.source, element, "point", default=(0.0, 0.0, 0.0),
-                                    allow_zero=True)
+                    point = _vector(
+                        self.source, element, "point", default=(0.0, 0.0, 0.0), allow_zero=True
+                    )
                     loads.append(PointForce(link, value, point))
                 else:
                     loads.append(Torque(link, value))
@@ -272,8 +353,9 @@ class _Reader:
         for element in block.findall("gravity"):
             _check_attributes(self.source, element, {"value", "enabled"})
             if _boolean(self.source, element, "enabled", True):
-                gravity = Gravity(_vector(self.source, element, "value", default=(0, 0, -9.81),
-                                          allow_zero=True))
+                gravity = Gravity(
+                    _vector(self.source, element, "value", default=(0, 0, -9.81), allow_zero=True)
+                )
         return tuple(loads), gravity
 
 
@@ -288,8 +370,9 @@ def _label(element: ET.Element | None) -> str:
 def _check_attributes(source: str, element: ET.Element, allowed: set[str]) -> None:
     unknown = sorted(set(element.attrib) - allowed)
     if unknown:
-        raise ModelError(source, _label(element), f"unknown attribute(s) {unknown}; allowed: "
-                         f"{sorted(allowed)}")
+        raise ModelError(
+            source, _label(element), f"unknown attribute(s) {unknown}; allowed: {sorted(allowed)}"
+        )
 
 
 def _number(source: str, element: ET.Element, attribute: str, nonnegative: bool = False) -> float:
@@ -314,7 +397,9 @@ def _vector(source: str, element, attribute: str, default=None, allow_zero: bool
     try:
         value = np.array([float(v) for v in text.split()], dtype=float)
     except ValueError:
-        raise ModelError(source, _label(element), f"{attribute}={text!r} is not 3 numbers") from None
+        raise ModelError(
+            source, _label(element), f"{attribute}={text!r} is not 3 numbers"
+        ) from None
     if value.shape != (3,) or not np.all(np.isfinite(value)):
         raise ModelError(source, _label(element), f"{attribute}={text!r} must be 3 finite numbers")
     if not allow_zero and np.linalg.norm(value) == 0.0:
@@ -345,6 +430,6 @@ def _set_nominal(source, label, model, joint_id, q, value: float) -> None:
     if joint.nq == 1:
         q[joint.idx_q] = value
     elif joint.nq == 2 and joint.nv == 1:
-        q[joint.idx_q:joint.idx_q + 2] = (math.cos(value), math.sin(value))
+        q[joint.idx_q : joint.idx_q + 2] = (math.cos(value), math.sin(value))
     else:
         raise ModelError(source, label, "a nominal value q applies to 1-DOF joints only")
