@@ -62,13 +62,11 @@ SECOND_ORDER = [
     pytest.param(
         shaft("6.2.1"),
         id="6.2.1",
-        marks=pytest.mark.xfail(raises=cp.SolverError, reason=SMALL_PLAY_ROUND_OFF, strict=True),
     ),
     pytest.param(model("slider_crank"), id="slider_crank"),
     pytest.param(
         model("four_bar"),
         id="four_bar",
-        marks=pytest.mark.xfail(raises=cp.SolverError, reason=SMALL_PLAY_ROUND_OFF, strict=True),
     ),
 ]
 
@@ -77,13 +75,14 @@ SECOND_ORDER = [
 def test_exact_tends_to_linear_at_second_order(factory):
     """Clearances scaled by s = 1, 0.1, 0.01: the log-log slope of |exact - linear| against s
     is 2 +/- 0.2, so the difference relative to the play falls like s; every exact solution is
-    verified (ok) and penetrates no clearance (max violation <= 1e-12 of the play)."""
+    verified (ok) and penetrates no clearance (max violation <= 1e-10 of the play, round-off)."""
     differences, relative = [], []
     for s in SCALES:
         exact = factory(s).solve(exact=True)
         assert exact.formulation == "exact" and exact.ok
         play = largest_play(exact)
-        assert exact.residuals["max_violation_m"] <= 1e-12 * play
+        # positions of ~1 m carry round-off of ~1e-16 m: 1e-10 of a micrometre play is that level
+        assert exact.residuals["max_violation_m"] <= 1e-10 * play
         difference = translation_difference(exact)
         assert difference == pytest.approx(exact.difference["translation_m"], rel=1e-12)
         differences.append(difference)
@@ -98,13 +97,7 @@ def test_exact_tends_to_linear_at_second_order(factory):
     [
         pytest.param(shaft("6.1.6.2"), id="6.1.6.2"),
         pytest.param(shaft("6.3.1"), id="6.3.1"),
-        pytest.param(
-            shaft("6.2.2"),
-            id="6.2.2",
-            marks=pytest.mark.xfail(
-                raises=cp.SolverError, reason=SMALL_PLAY_ROUND_OFF, strict=True
-            ),
-        ),
+        pytest.param(shaft("6.2.2"), id="6.2.2"),
     ],
 )
 def test_pure_translations_are_exact(factory):
@@ -124,7 +117,6 @@ def test_pure_torque_on_two_journals_is_third_order():
     assert 2.7 <= slope <= 3.3, differences
 
 
-@pytest.mark.xfail(raises=cp.SolverError, reason=WEAK_CONTACT_DROPPED, strict=True)
 def test_arm_exact_with_micrometre_play():
     """models/arm_6r.urdf with every clearance /10 (radial 1 um, axial 0.5 um): the exact model
     has a verified optimum (ok) that penetrates no clearance."""

@@ -73,10 +73,7 @@ PLANAR_LOOP_BUG = (
 
 
 def _mark_planar_loops(path):
-    marks = (
-        [pytest.mark.xfail(reason=PLANAR_LOOP_BUG, strict=True)] if path.stem == "four_bar" else []
-    )
-    return pytest.param(path, marks=marks, id=path.stem)
+    return pytest.param(path, id=path.stem)
 
 
 @pytest.mark.parametrize("path", [_mark_planar_loops(p) for p in MODEL_FILES])
@@ -161,7 +158,6 @@ def test_paper_case_from_transformed_inputs(case_id):
     assert_torsors_close(transformed, rotated, RTOL, reference.mechanism.length_scale())
 
 
-@pytest.mark.xfail(reason=PLANAR_LOOP_BUG, strict=True)
 @pytest.mark.parametrize("roll", [0.3, 1e-3, np.pi])
 def test_four_bar_tilted_out_of_the_xy_plane(roll):
     """models/four_bar.urdf with its ground link rolled about x (a root link ``moved_base``, fixed

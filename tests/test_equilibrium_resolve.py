@@ -121,7 +121,6 @@ WARM_NOT_MINIMUM_NORM = (
 )
 
 
-@pytest.mark.xfail(reason=WARM_NOT_MINIMUM_NORM, strict=True)
 def test_warm_start_returns_the_minimum_norm_point_of_a_flat_optimum():
     """models/younes_sphere_cylinder.urdf solved for F = (-7, 1, 3) N at (0.05, 0, 0) m, then for
     F = (0, 0, 1) N at the ball centre (the tilt is then bounded but unloaded): the second answer

@@ -17,6 +17,7 @@ The difference from the linear model is of second order (rotation x displacement
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import casadi as ca
 import numpy as np
@@ -122,7 +123,8 @@ class ExactProblem:
             "ipopt.print_level": 0,
             "ipopt.sb": "yes",
             "ipopt.tol": tol,
-            "ipopt.acceptable_tol": tol,
+            "ipopt.acceptable_tol": 1e3 * tol,
+            "ipopt.acceptable_iter": 5,
             "ipopt.max_iter": 300,
             "ipopt.bound_relax_factor": 0.0,
             "ipopt.mu_strategy": "adaptive",
@@ -138,6 +140,13 @@ class ExactProblem:
         jacobian_g = ca.jacobian(constraints, z)
         self.derivatives = ca.Function(
             "exact_kkt", [z, parameters], [ca.gradient(energy, z), jacobian_g, energy]
+        )
+        multipliers = ca.SX.sym("lam", constraints.shape[0])
+        lagrangian = energy / sigma + ca.dot(multipliers, constraints)
+        self.kkt_parts = ca.Function(
+            "exact_kkt_parts",
+            [z, parameters, multipliers],
+            [ca.gradient(energy / sigma, z), constraints, jacobian_g, ca.hessian(lagrangian, z)[0]],
         )
         self.closure = ca.Function(
             "exact_closure",
@@ -218,6 +227,13 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     """Solve the exact model from the linear equilibrium ``linear``; residuals measured."""
     from .solve import linear_setup
 
+    if linear.status == "indeterminate":
+        return replace(
+            linear,
+            formulation="exact",
+            linear=linear,
+            difference={"translation_m": 0.0, "rotation_rad": 0.0},
+        )
     configuration, _maps, body_loads, problem = linear_setup(mechanism, loads, q)
     rows = independent_rows(problem.equalities, problem.scale)
     key = ("exact", problem.signature(), problem.free_motions.shape[1], rows, tol)
@@ -232,10 +248,17 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     z0 = x_linear / problem.scale
     solve_started = time.perf_counter()
     result = exact.solver(x0=z0, p=params, lbg=exact.lower, ubg=exact.upper)
-    stats = exact.solver.stats()
+    stats = dict(exact.solver.stats())
     z = np.asarray(result["x"], dtype=float).ravel()
     lam = np.asarray(result["lam_g"], dtype=float).ravel()
-    equilibrium = _assemble(mechanism, exact, problem, configuration, z, lam, params, sigma, stats)
+    polished = polish_exact(exact, z, lam, params)
+    if polished is not None:
+        z, lam = polished
+        stats["return_status"] = f"ipopt: {stats['return_status']}, Newton-polished"
+    equilibrium = _assemble(
+        mechanism, exact, problem, configuration, z, lam, params, sigma, stats, polished is not None
+    )
+    equilibrium.polished = polished is not None
     equilibrium.build_time = exact.build_time if built_now else 0.0
     equilibrium.solve_time = time.perf_counter() - solve_started
     equilibrium.linear = linear
@@ -249,11 +272,66 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     return equilibrium
 
 
+def polish_exact(exact: ExactProblem, z, lam, params, iterations: int = 12):
+    r"""Active-set Newton on the exact KKT system from IPOPT's answer; None unless verified.
+
+    Active: the equalities, and the contact constraints within 1e-6 of their bound or carrying
+    a multiplier. Solves :math:`\nabla f + J_A^T \lambda_A = 0`, :math:`g_A = b_A` with the exact
+    Lagrangian Hessian, then accepts only if every contact multiplier pushes (>= 0 in the sense of
+    its bound), every other contact is feasible, and the residual is at round-off.
+    """
+    n_in = len(exact.shapes)
+    lower, upper = exact.lower, exact.upper
+    _, g, _, _ = (np.asarray(v) for v in exact.kkt_parts(z, params, lam))
+    g = g.ravel()
+    largest = max(1.0, float(np.max(np.abs(lam[:n_in]), initial=0.0)))
+    at_upper = (np.abs(g[:n_in] - upper[:n_in]) < 1e-6) | (lam[:n_in] > 1e-9 * largest)
+    at_lower = np.isfinite(lower[:n_in]) & (
+        (np.abs(g[:n_in] - lower[:n_in]) < 1e-6) | (lam[:n_in] < -1e-9 * largest)
+    )
+    active = np.concatenate([np.flatnonzero(at_upper | at_lower), np.arange(n_in, g.size)])
+    target = np.where(at_lower, lower[:n_in], upper[:n_in])
+    targets = np.concatenate([target, np.zeros(g.size - n_in)])[active]
+    z, lam = z.copy(), lam.copy()
+    n = z.size
+    for _ in range(iterations):
+        gradient, g, jacobian, hessian = (np.asarray(v) for v in exact.kkt_parts(z, params, lam))
+        g = g.ravel()
+        j_active = jacobian[active]
+        residual = np.concatenate(
+            [gradient.ravel() + j_active.T @ lam[active], g[active] - targets]
+        )
+        if np.abs(residual).max() < 1e-14:
+            break
+        kkt = np.block([[hessian, j_active.T], [j_active, np.zeros((active.size, active.size))]])
+        step = np.linalg.lstsq(kkt, -residual, rcond=None)[0]
+        z += step[:n]
+        lam[active] += step[n:]
+    else:
+        return None
+    inactive = np.setdiff1d(np.arange(n_in), active)
+    lam[inactive] = 0.0
+    pushes = np.all(lam[:n_in][at_upper] >= -1e-12) and np.all(lam[:n_in][at_lower] <= 1e-12)
+    feasible = np.all(g[:n_in] <= upper[:n_in] + 1e-13) and np.all(g[:n_in] >= lower[:n_in] - 1e-13)
+    return (z, lam) if (feasible and pushes) else None
+
+
 def _coordinates(linear: Equilibrium, joint) -> np.ndarray:
     return tree_joint_basis(joint).T @ linear.torsors[joint.name]
 
 
-def _assemble(mechanism, exact: ExactProblem, problem, configuration, z, lam, params, sigma, stats):
+def _assemble(
+    mechanism,
+    exact: ExactProblem,
+    problem,
+    configuration,
+    z,
+    lam,
+    params,
+    sigma,
+    stats,
+    polished_multipliers: bool = False,
+):
     model = mechanism.model
     outputs = [np.asarray(o) for o in exact.evaluate(z, params)]
     placed = outputs[: model.njoints]
@@ -281,7 +359,7 @@ def _assemble(mechanism, exact: ExactProblem, problem, configuration, z, lam, pa
         r = np.array(point.point)
         d = (M[:, 3] + M[:, :3] @ r - r)[list(point.components)]
         gap = point.bound - float(np.linalg.norm(d) if point.shape == "norm" else abs(d[0]))
-        if gap > 1e-7 * point.bound:
+        if gap > 1e-7 * point.bound and not polished_multipliers:
             lam[j] = 0.0  # interior-point leftovers on free points: no force there
         multiplier = abs(lam[j])
         if point.shape == "norm":
@@ -290,7 +368,7 @@ def _assemble(mechanism, exact: ExactProblem, problem, configuration, z, lam, pa
             local = np.array([-sigma * multiplier * np.sign(lam[j]) / point.bound])
         force = np.zeros(3)
         force[list(point.components)] = local
-        active = gap <= 1e-7 * point.bound
+        active = gap <= 1e-7 * point.bound or (polished_multipliers and lam[j] != 0.0)
         contacts.append(Contact(name, point.name, gap, point.bound, force, bool(active)))
     gradient, jacobian, energy = (np.asarray(v) for v in exact.derivatives(z, params))
     gradient = gradient.ravel()

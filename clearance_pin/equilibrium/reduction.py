@@ -29,6 +29,7 @@ from .kkt import StackedContacts
 from .small_displacement import SmallDisplacementMaps, null_space
 
 UNBOUNDED_FRACTION = 1e-9
+RANK_ATOL = 1e-9  # on rows normalised to their natural size (closure rows, contact rows / play)
 
 
 @dataclass(frozen=True)
@@ -147,15 +148,16 @@ def reduce_geometry(
         length_scale: characteristic length of the mechanism L_ref [m], for rotation scales.
     """
     n = maps.size
-    contacts, equality_rows = _constraints(maps, joints)
+    contacts, equality_rows, equality_joints = _constraints(maps, joints)
     scale = _variable_scales(maps, joints, contacts, length_scale)
     equalities = np.array(equality_rows).reshape(-1, n)
-    closure_basis = null_space(equalities * scale) if equalities.size else np.eye(n)
-    conditioning = closure_conditioning(equalities * scale)
+    normalised = _normalised_equalities(maps, equalities, equality_joints, scale)
+    closure_basis = null_space(normalised, atol=RANK_ATOL) if equalities.size else np.eye(n)
+    conditioning = closure_conditioning(normalised)
     if contacts:
-        contact_rows = np.vstack([c.rows for c in contacts]) * scale
+        contact_rows = np.vstack([c.rows / c.contact.bound for c in contacts]) * scale
         seen = contact_rows @ closure_basis
-        free_w = null_space(seen)
+        free_w = null_space(seen, atol=RANK_ATOL)
         conditioning = min(conditioning, closure_conditioning(seen))
     else:
         free_w = np.eye(closure_basis.shape[1])
@@ -234,19 +236,35 @@ def reduce(
 def _constraints(maps: SmallDisplacementMaps, joints: dict):
     contacts: list[ContactConstraint] = []
     equality_rows: list[np.ndarray] = []
+    equality_joints: list[str] = []
     for name, joint in joints.items():
         torsor = maps.joint_torsor[name]
         is_loop = not hasattr(joint, "joint_id")
         if is_loop:
             for component in joint.clearance.rigid_components:
                 equality_rows.append(torsor[component])
+                equality_joints.append(name)
         for contact in joint.clearance.contacts:
             rows = contact.linear_rows() @ torsor
             if contact.bound > 0.0:
                 contacts.append(ContactConstraint(name, contact, rows))
             elif is_loop:
                 equality_rows.extend(rows)
-    return contacts, equality_rows
+                equality_joints.extend([name] * rows.shape[0])
+    return contacts, equality_rows, equality_joints
+
+
+def _normalised_equalities(maps, equalities: np.ndarray, names: list[str], scale) -> np.ndarray:
+    """Closure rows E Z, each divided by the size of its joint's whole scaled torsor map.
+
+    A row that is round-off of that size (the out-of-plane closure of a planar loop whose tree
+    joints already keep it planar) then reads ~1e-16 and is dropped by the absolute rank test.
+    """
+    if not names:
+        return equalities * scale
+    sizes = {name: float(np.abs(maps.joint_torsor[name] * scale).max()) for name in set(names)}
+    divisors = np.array([sizes[name] or 1.0 for name in names])
+    return equalities * scale / divisors[:, None]
 
 
 def _variable_scales(maps, joints, contacts, length_scale: float) -> np.ndarray:

@@ -127,8 +127,13 @@ def build_maps(
     )
 
 
-def null_space(matrix: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
-    """Orthonormal basis (n, n - rank) of the null space of ``matrix`` (m, n), by SVD."""
+def null_space(matrix: np.ndarray, rtol: float = 1e-10, atol: float = 0.0) -> np.ndarray:
+    """Orthonormal basis (n, n - rank) of the null space of ``matrix`` (m, n), by SVD.
+
+    A singular value counts towards the rank when it exceeds both ``rtol`` times the largest and
+    ``atol``. Give ``atol`` when the rows have a known natural size (normalised rows): a block of
+    rows that are all round-off then has rank 0, which a purely relative test cannot see.
+    """
     matrix = np.atleast_2d(matrix)
     n = matrix.shape[1]
     if matrix.shape[0] == 0:
@@ -136,7 +141,7 @@ def null_space(matrix: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
     _, s, vt = np.linalg.svd(matrix)
     if s.size == 0 or s[0] == 0.0:
         return np.eye(n)
-    rank = int(np.sum(s > rtol * s[0]))
+    rank = int(np.sum((s > rtol * s[0]) & (s > atol)))
     return vt[rank:].T.copy()
 
 

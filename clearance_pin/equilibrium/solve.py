@@ -79,6 +79,12 @@ def solve_linear(
     warm_key = ("warm", problem.signature())
     warm = mechanism._solve_state.get(warm_key) if warm_start else None
     solution = solve_cone(problem, built, warm=warm)
+    if not solution.polished and built.name != "ipopt":
+        fallback, fallback_built = backend_for(problem, "ipopt", tol)
+        second = solve_cone(problem, fallback)
+        if second.polished or second.kkt_residual < solution.kkt_residual:
+            second.status = f"{solution.status}, unverified; then {second.status}"
+            solution, built, built_now = second, fallback, fallback_built
     if solution.polished:
         mechanism._solve_state[warm_key] = solution
     flat = flat_directions(problem, solution)
@@ -141,7 +147,8 @@ def flat_directions(problem: ReducedProblem, solution) -> np.ndarray:
     if not solution.polished:
         return np.zeros((problem.size, 0))
     stack = problem.stack
-    active = np.flatnonzero(solution.multipliers > 0.0)
+    largest = float(np.max(solution.multipliers, initial=0.0))
+    active = np.flatnonzero(solution.multipliers > 1e-10 * largest)
     _, gradients = stack.evaluate(solution.y, solution.signs)
     rows = np.vstack([gradients[active], stack.hessian(solution.multipliers)])
     scale = max(1.0, float(np.abs(rows).max(initial=0.0)))

@@ -94,14 +94,27 @@ def close_loops(
         v[passive] = step
         q = pin.integrate(model, q, v)
     if residual_norm > 1e-9 * max(length, 1.0):
+        worst = max(
+            zip(selections, _split(residual, selections)),
+            key=lambda item: float(np.max(np.abs(item[1]), initial=0.0)),
+        )[0][0]
         raise ModelError(
             mechanism.source,
-            "<loop_joint>",
+            f"<loop_joint name='{worst.name}'>",
             f"the loops cannot be closed at this configuration (residual "
             f"{residual_norm:.3e} m after Gauss-Newton on the passive joints); check "
             "the driven values and the link lengths",
         )
     return q
+
+
+def _split(residual: np.ndarray, selections) -> list[np.ndarray]:
+    """The residual cut into one piece per loop joint."""
+    pieces, start = [], 0
+    for _, rows, _ in selections:
+        pieces.append(residual[start : start + len(rows)])
+        start += len(rows)
+    return pieces
 
 
 def _weights(rows: list[int], length: float) -> np.ndarray:

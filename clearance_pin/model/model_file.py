@@ -48,6 +48,7 @@ LOOP_ATTRIBUTES = {
     "axis",
     *CLEARANCE_ATTRIBUTES,
 }
+URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 IDEAL_KIND_OF_URDF = {
     "revolute": "revolute",
     "continuous": "revolute",
@@ -101,6 +102,8 @@ def loads(text: str, source: str = "<string>", mesh_dir: Path | None = None):
         collision_model=collision,
     )
     mechanism.dimensions = dimensions
+    if loop_joints:
+        mechanism.q_nominal = mechanism.configure().q  # close the loops now: errors at load time
     return mechanism
 
 
@@ -135,6 +138,46 @@ class _Reader:
                 )
             if child_link:
                 parents[child_link] = name
+        self._check_urdf_structure()
+
+    def _check_urdf_structure(self) -> None:
+        """The URDF checks Pinocchio makes without naming the element (it prints to stderr)."""
+        links = set()
+        for element in self.root.findall("link"):
+            name = element.get("name")
+            if not name:
+                raise ModelError(self.source, "<link>", "a URDF link needs a name")
+            if name in links:
+                raise ModelError(self.source, f"<link name='{name}'>", "duplicate link name")
+            links.add(name)
+        for name, element in self.urdf_joints.items():
+            label = f"<joint name='{name}'>"
+            kind = element.get("type")
+            if kind not in URDF_JOINT_TYPES:
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"type={kind!r} is not a URDF joint type; expected one of {URDF_JOINT_TYPES}",
+                )
+            for tag in ("parent", "child"):
+                child = element.find(tag)
+                link = child.get("link") if child is not None else None
+                if not link:
+                    raise ModelError(self.source, label, f"needs <{tag} link='...'/>")
+                if link not in links:
+                    raise ModelError(
+                        self.source, label, f"<{tag} link='{link}'> is not a link of the URDF"
+                    )
+            origin = element.find("origin")
+            for attribute in ("xyz", "rpy"):
+                if origin is not None and origin.get(attribute) is not None:
+                    _vector(self.source, origin, attribute, allow_zero=True, label=label)
+            axis = element.find("axis")
+            if axis is not None and kind in ("revolute", "continuous", "prismatic"):
+                try:
+                    _vector(self.source, axis, "xyz", label=label)
+                except ModelError as exc:
+                    raise ModelError(self.source, label, f"<axis> {exc.problem}") from None
 
     def pin_model(self) -> pin.Model:
         try:
@@ -388,22 +431,28 @@ def _number(source: str, element: ET.Element, attribute: str, nonnegative: bool 
     return value
 
 
-def _vector(source: str, element, attribute: str, default=None, allow_zero: bool = False):
+def _vector(
+    source: str,
+    element,
+    attribute: str,
+    default=None,
+    allow_zero: bool = False,
+    label: str | None = None,
+):
+    label = label or _label(element)
     text = element.get(attribute) if element is not None else None
     if text is None:
         if default is None:
-            raise ModelError(source, _label(element), f"needs {attribute} (3 numbers)")
+            raise ModelError(source, label, f"needs {attribute} (3 numbers)")
         return np.array(default, dtype=float)
     try:
         value = np.array([float(v) for v in text.split()], dtype=float)
     except ValueError:
-        raise ModelError(
-            source, _label(element), f"{attribute}={text!r} is not 3 numbers"
-        ) from None
+        raise ModelError(source, label, f"{attribute}={text!r} is not 3 numbers") from None
     if value.shape != (3,) or not np.all(np.isfinite(value)):
-        raise ModelError(source, _label(element), f"{attribute}={text!r} must be 3 finite numbers")
+        raise ModelError(source, label, f"{attribute}={text!r} must be 3 finite numbers")
     if not allow_zero and np.linalg.norm(value) == 0.0:
-        raise ModelError(source, _label(element), f"{attribute} has zero length")
+        raise ModelError(source, label, f"{attribute} has zero length")
     return value
 
 

@@ -1,0 +1,153 @@
+"""check_equilibrium: place the parts at the solved pose and let coal measure every clearance."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from ..errors import ClearancePinError
+from .accuracy import Tolerance, coal_accuracy, solver_accuracy
+from .geometry import Region, point_shape, shape_cache
+from .measure import Probe
+from .poses import clearance_frames
+from .report import CheckReport, JointCheck, PointCheck
+from .surfaces import collision_parts, journal_in_bore
+
+GJK_TOLERANCE = 1e-12
+FACETS = 512
+_IDENTITY = np.eye(3)
+
+
+def check_equilibrium(
+    equilibrium,
+    *,
+    bores: bool = False,
+    journal_radius: float | None = None,
+    facets: int = FACETS,
+    mesh_faceting: float | None = None,
+    gjk_tolerance: float = GJK_TOLERANCE,
+) -> CheckReport:
+    """Measure a solved pose with coal: every contact point against its clearance region, and
+    optionally the parts' surfaces (see :mod:`clearance_pin.check`).
+
+    Args:
+        equilibrium: a solved :class:`~clearance_pin.equilibrium.result.Equilibrium`.
+        bores: also measure a journal cylinder in a generated faceted bore for every cylindrical
+            and revolute joint (:mod:`.surfaces`).
+        journal_radius: radius R of those journals [m] (default 10 radial clearances).
+        facets: number N of facets of a generated bore (faceting bound
+            (R + c)(1/cos(pi/N) - 1): 2.1e-4 c for R = 10 c, N = 512).
+        mesh_faceting: faceting bound [m] of the URDF's collision meshes, when the mechanism has
+            collision geometry on both links of a joint; None: only penetration is judged there.
+        gjk_tolerance: coal's GJK and EPA tolerances (relative).
+
+    Returns:
+        :class:`~clearance_pin.check.report.CheckReport`.
+
+    Raises:
+        ClearancePinError: the equilibrium carries no pose, an option is out of range, or coal fails.
+    """
+    started = time.perf_counter()
+    _validate(equilibrium, journal_radius, facets, mesh_faceting, gjk_tolerance)
+    mechanism = equilibrium.mechanism
+    probe = Probe(gjk_tolerance)
+    frames = clearance_frames(equilibrium)
+    by_joint: dict[str, list] = {}
+    for contact in equilibrium.contacts:
+        by_joint.setdefault(contact.joint, []).append(contact)
+    joints, notes = {}, []
+    for name, joint in mechanism.joints.items():
+        contacts = by_joint.get(name, [])
+        rigid = [p.name for p in joint.clearance.contacts if p.bound == 0.0]
+        if rigid and contacts:
+            notes.append(
+                f"{name}: {', '.join(rigid)} without play (rigid conditions), not measured"
+            )
+        if not contacts:
+            notes.append(f"{name} ({joint.clearance.kind}): no play, nothing to measure")
+            continue
+        points = tuple(
+            _point_reading(equilibrium, joint, contact, frames[name], probe) for contact in contacts
+        )
+        surfaces = []
+        if bores:
+            surfaces.append(
+                journal_in_bore(equilibrium, name, frames[name], probe, facets, journal_radius)
+            )
+        surfaces.append(collision_parts(equilibrium, name, frames[name], probe, mesh_faceting))
+        surfaces = tuple(s for s in surfaces if s is not None)
+        if any(not s.judged for s in surfaces):
+            notes.append(
+                f"{name}: URDF collision meshes of unknown faceting, only penetration judged "
+                "(pass mesh_faceting=...)"
+            )
+        joints[name] = JointCheck(name, joint.clearance.kind, points, surfaces)
+    return CheckReport(
+        formulation=equilibrium.formulation,
+        joints=joints,
+        check_time=time.perf_counter() - started,
+        coal_time=probe.coal_time,
+        build_time=probe.build_time,
+        readings=probe.count,
+        gjk_tolerance=gjk_tolerance,
+        notes=tuple(notes),
+    )
+
+
+def _point_reading(equilibrium, joint, contact, frames, probe: Probe) -> PointCheck:
+    """coal's reading of one contact point: the child's point against its clearance region."""
+    point = next(p for p in joint.clearance.contacts if p.name == contact.point)
+    if point.bound != contact.clearance:  # measure the clearance the solver used
+        point = dataclasses.replace(point, bound=contact.clearance)
+    mechanism = equilibrium.mechanism
+    cache = shape_cache(mechanism)
+    key = ("functor", joint.name, point)
+    if key not in cache:
+        import coal
+
+        region = probe.build(Region, point)
+        dot = point_shape()
+        # the functor keeps raw pointers to both shapes: the cache keeps them alive
+        cache[key] = (region, dot, probe.build(coal.ComputeDistance, region.shape, dot))
+    region, _, functor = cache[key]
+    parent, child = frames.parent, frames.child
+    x = child.rotation @ region.nominal + child.translation  # the child's point, world [m]
+    oM_region = region.placement(parent.rotation, parent.translation, x)
+    signed = probe.distance(functor, oM_region, None, (_IDENTITY, x), contact.label)
+    tolerance = Tolerance(
+        faceting=0.0,
+        solver=solver_accuracy(equilibrium, point.bound, contact.gap, contact.active),
+        coal=coal_accuracy(probe.gjk_tolerance, point.bound, float(np.linalg.norm(x))),
+    )
+    return PointCheck(
+        joint.name,
+        point.name,
+        region.kind,
+        point.bound,
+        contact.gap,
+        -signed,
+        contact.active,
+        tolerance,
+    )
+
+
+def _validate(equilibrium, journal_radius, facets, mesh_faceting, gjk_tolerance) -> None:
+    if getattr(equilibrium, "mechanism", None) is None or not equilibrium.body_placements:
+        raise ClearancePinError(
+            "this equilibrium carries no solved pose (mechanism and body_placements): "
+            "check the result of Mechanism.solve"
+        )
+    if not isinstance(facets, int) or facets < 3:
+        raise ClearancePinError(f"facets must be an integer >= 3, got {facets!r}")
+    for name, value in (("journal_radius", journal_radius), ("mesh_faceting", mesh_faceting)):
+        if value is not None and not (np.isfinite(value) and value >= 0.0):
+            raise ClearancePinError(f"{name} must be a finite length >= 0 [m], got {value!r}")
+    if journal_radius is not None and journal_radius <= 0.0:
+        raise ClearancePinError(f"journal_radius must be > 0 [m], got {journal_radius!r}")
+    if not (0.0 < gjk_tolerance <= 1e-3):
+        raise ClearancePinError(f"gjk_tolerance must be in (0, 1e-3], got {gjk_tolerance!r}")
+
+
+__all__ = ["check_equilibrium", "GJK_TOLERANCE", "FACETS"]

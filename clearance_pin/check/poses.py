@@ -1,0 +1,105 @@
+r"""The two clearance frames of every joint at a solved pose (world placements, Pinocchio's ``oM``).
+
+A joint's clearance frame exists twice: carried by the parent part (the bore, the socket, the guide)
+and by the child part (the journal, the ball, the block). They coincide at the nominal
+configuration; at the solved pose their relative placement is the joint's finite relative motion.
+
+- tree joint k (child body k, parent body p, clearance rotation :math:`C_k`):
+
+  .. math::  oM_{parent} = oM_p\; (oM_p^0)^{-1}\, oM_k^0\; C_k, \qquad oM_{child} = oM_k\; C_k
+
+  (the child's nominal frame carried along with the parent; :math:`oM^0` nominal placements);
+- loop joint between frames a and b: :math:`oM_{parent} = oM_a\, C_a`,
+  :math:`oM_{child} = oM_b\; bM_c` (``Configuration.bMc``, the child-side frame fixed in b).
+
+:math:`oM_p, oM_k` are ``Equilibrium.body_placements``, :math:`oM_a = oM_{j(a)}\; jM_a` with
+:math:`jM_a` the frame's placement in its Pinocchio joint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+
+@dataclass(frozen=True)
+class ClearanceFrames:
+    """Both clearance frames of one joint at the solved pose.
+
+    Attributes:
+        parent: world placement (pin.SE3) of the parent part's clearance frame.
+        child: world placement (pin.SE3) of the child part's clearance frame.
+        parent_body: Pinocchio joint index of the parent part.
+        child_body: Pinocchio joint index of the child part.
+    """
+
+    parent: pin.SE3
+    child: pin.SE3
+    parent_body: int
+    child_body: int
+
+    @property
+    def relative(self) -> pin.SE3:
+        """The child's clearance frame in the parent's (the joint's finite relative motion)."""
+        return self.parent.actInv(self.child)
+
+
+def clearance_frames(equilibrium) -> dict[str, ClearanceFrames]:
+    """:class:`ClearanceFrames` of every joint (tree and loop) of ``equilibrium``'s mechanism."""
+    mechanism = equilibrium.mechanism
+    model = mechanism.model
+    nominal = equilibrium.configuration
+    placed = equilibrium.body_placements
+    if len(placed) != model.njoints:
+        raise ValueError(
+            f"body_placements must hold {model.njoints} placements (one per Pinocchio joint), "
+            f"got {len(placed)}"
+        )
+    frames = {}
+    for joint in mechanism.tree_joints:
+        k = joint.joint_id
+        p = model.parents[k]
+        clearance = pin.SE3(joint.rotation, np.zeros(3))
+        carried = placed[p] * nominal.oMi[p].actInv(nominal.oMi[k]) * clearance
+        frames[joint.name] = ClearanceFrames(carried, placed[k] * clearance, p, k)
+    for loop in mechanism.loop_joints:
+        frame_a, frame_b = model.frames[loop.frame_a], model.frames[loop.frame_b]
+        side_a = (
+            placed[frame_a.parentJoint] * frame_a.placement * pin.SE3(loop.rotation, np.zeros(3))
+        )
+        side_b = placed[frame_b.parentJoint] * frame_b.placement * nominal.bMc[loop.name]
+        frames[loop.name] = ClearanceFrames(
+            side_a, side_b, frame_a.parentJoint, frame_b.parentJoint
+        )
+    return frames
+
+
+def joint_links(mechanism, name: str) -> tuple[int, int]:
+    """Frame ids of the parent link and the child link (BODY frames) that a joint joins.
+
+    Tree joint: the link the URDF joint hangs from and the link it carries; loop joint: the links
+    holding ``frame_a`` and ``frame_b`` (the frames themselves when they are links).
+    """
+    model = mechanism.model
+    joint = mechanism.joint(name)
+    if hasattr(joint, "frame_a"):
+        return _link_of(model, joint.frame_a), _link_of(model, joint.frame_b)
+    joint_frame = model.getFrameId(joint.name, pin.FrameType.JOINT)
+    parent = _link_of(model, model.frames[joint_frame].parentFrame)
+    child = next(
+        i
+        for i, f in enumerate(model.frames)
+        if f.type == pin.FrameType.BODY and f.parentFrame == joint_frame
+    )
+    return parent, child
+
+
+def _link_of(model, frame_id: int) -> int:
+    while model.frames[frame_id].type != pin.FrameType.BODY and frame_id != 0:
+        frame_id = model.frames[frame_id].parentFrame
+    return frame_id
+
+
+__all__ = ["ClearanceFrames", "clearance_frames", "joint_links"]

@@ -1,0 +1,404 @@
+r"""First-order sensitivities of a mechanism's outputs to its toleranced dimensions [F].
+
+P. Flores, "A methodology for quantifying the kinematic position errors due to manufacturing
+and assembly tolerances", Strojniski vestnik - J. Mech. Eng. (2011) [F], differentiates the
+constraint equations ``Phi(q, d) = 0`` with the driving coordinates fixed:
+
+.. math::
+
+    \Phi_q \, dq + \Phi_d \, dd = 0 \quad\Rightarrow\quad dq = S_q \, dd, \qquad
+    S_q = -\Phi_q^{-1} \Phi_d
+
+Here ``Phi`` is the loop closure of :mod:`clearance_pin.kinematics.closure`: the components
+that each loop joint constrains of the relative placement of its two frames, in its clearance
+frame ``c``, and ``q`` the passive joints. Both Jacobians come from Pinocchio's spatial frame
+Jacobians (``pin.WORLD``) at the closed nominal configuration:
+
+.. math::
+
+    \Phi_q = \big[\mathrm{Ad}(oM_c)^{-1} (J_b - J_a)\big]_{rows,\,passive}, \qquad
+    \Phi_d = \big[\mathrm{Ad}(oM_c)^{-1} (D_b - D_a)\big]_{rows}
+
+A dimension acts as a *virtual joint* at its joint origin: its spatial column (world, at the
+world origin) is ``xi = Ad(oM_J) (u, 0)`` for a length along ``u`` (a prismatic joint) and
+``xi = Ad(oM_J) (c x a, a)`` for an angle about ``a`` through the origin ``c`` (a revolute
+joint), ``J`` the parent joint; ``D_x`` holds ``xi`` in the columns of the dimensions whose
+subtree carries frame ``x`` (:func:`~clearance_pin.tolerance.dimensions.affected_frames`).
+``Phi_q`` may have more rows than columns (a planar loop closed in 3-D): ``S_q`` is then the
+least-squares solution, and a dimension that the passive joints cannot follow (an
+out-of-plane length in an overconstrained loop) is refused.
+
+Outputs (spec strings of :func:`parse_output`): a frame's world position coordinate
+``slider.x`` [m], a small rotation of a frame about a world axis ``rod.rz`` [rad] (for a
+planar motion about z, the change of the frame's angle), or a 1-DOF joint coordinate
+``pin_A`` [rad or m]; ``x4=slider.x`` names it. Their sensitivities:
+
+.. math::
+
+    \frac{d p_f}{dd} = \big[v - p_f \times \omega\big], \quad
+    \frac{d \theta_f}{dd} = \omega, \qquad (v, \omega) = J_f \, dq + D_f \, dd
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import ClearancePinError, ConditioningWarning, ModelError
+from ..kinematics.closure import closure_residual, passive_velocity_indices
+from ..model.clearance import ALPHA
+from .dimensions import Dimension, affected_frames
+from .statistics import rss_band, worst_case_band
+
+__all__ = [
+    "Output",
+    "Sensitivities",
+    "dimension_columns",
+    "loop_passive_indices",
+    "output_deviations",
+    "output_values",
+    "parse_output",
+    "sensitivities",
+]
+
+COMPONENTS = {"x": 0, "y": 1, "z": 2, "rx": 0, "ry": 1, "rz": 2}
+#: relative residual above which a dimension counts as not absorbable by the passive joints
+CONSISTENCY_TOL = 1e-8
+#: smallest/largest singular value of the scaled Phi_q under which the position is singular
+SINGULAR_TOL = 1e-10
+
+
+@dataclass(frozen=True)
+class Output:
+    """One output of a tolerance analysis.
+
+    Attributes:
+        name: label in tables and JSON (``"x4"``).
+        kind: ``"position"`` [m], ``"orientation"`` [rad] or ``"joint"`` [rad or m].
+        target: frame name (position, orientation) or joint name (joint).
+        index: frame id or joint id in the Pinocchio model.
+        component: 0, 1, 2 for x, y, z (position, orientation); 0 for a joint.
+    """
+
+    name: str
+    kind: Literal["position", "orientation", "joint"]
+    target: str
+    index: int
+    component: int = 0
+
+    @property
+    def unit(self) -> str:
+        """``"m"`` or ``"rad"``."""
+        return "m" if self.kind == "position" else "rad"
+
+
+def parse_output(model: pin.Model, spec: str) -> Output:
+    """Read an output spec: ``[NAME=]FRAME.{x,y,z,rx,ry,rz}`` or ``[NAME=]JOINT``.
+
+    Examples: ``"x4=slider.x"`` (world x of the frame ``slider``), ``"theta3=rod.rz"``,
+    ``"pin_A"`` (the coordinate of a 1-DOF joint).
+
+    Raises:
+        ClearancePinError: unknown frame, joint or component (the message lists the choices).
+    """
+    name, _, target = spec.rpartition("=")
+    target = target.strip()
+    match = re.fullmatch(r"(.+)\.(x|y|z|rx|ry|rz)", target)
+    if match and model.existFrame(match.group(1)):
+        frame, axis = match.groups()
+        kind = "orientation" if axis.startswith("r") else "position"
+        return Output(
+            name.strip() or target, kind, frame, model.getFrameId(frame), COMPONENTS[axis]
+        )
+    if model.existJointName(target) and model.getJointId(target) > 0:
+        joint_id = model.getJointId(target)
+        if model.joints[joint_id].nv != 1:
+            raise ClearancePinError(
+                f"output {spec!r}: joint {target!r} has {model.joints[joint_id].nv}"
+                " degrees of freedom; only 1-DOF joint coordinates are outputs"
+            )
+        return Output(name.strip() or target, "joint", target, joint_id, 0)
+    frames = sorted({f.name for f in model.frames if f.type == pin.FrameType.BODY})
+    raise ClearancePinError(
+        f"output {spec!r}: expected FRAME.x|y|z|rx|ry|rz or a joint name; the "
+        f"frames are {', '.join(frames)}; the joints are "
+        f"{', '.join(model.names[1:])}"
+    )
+
+
+@dataclass(frozen=True)
+class Sensitivities:
+    """Sensitivities of the outputs at one closed configuration.
+
+    Attributes:
+        q: the closed configuration (nq,).
+        outputs: the outputs (rows of ``matrix``).
+        dimensions: the dimensions (columns).
+        values: nominal output values, shape (n_out,) [m or rad] (orientation: the world
+            rotation-vector component, the frame angle for a planar motion).
+        matrix: ``S`` [output/dimension], shape (n_out, n_dim).
+        passive: ``S_q`` [rad/m or -] of the passive joints, shape (n_passive, n_dim).
+        passive_indices: velocity indices of the passive joints, length n_passive.
+        conditioning: smallest / largest singular value of the (length-scaled) ``Phi_q``, 1 for
+            an open chain; near 0 at a singular position.
+    """
+
+    q: np.ndarray
+    outputs: tuple[Output, ...]
+    dimensions: tuple[Dimension, ...]
+    values: np.ndarray
+    matrix: np.ndarray
+    passive: np.ndarray
+    passive_indices: tuple[int, ...]
+    conditioning: float
+    half_tolerances: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "half_tolerances", np.array([d.half_tolerance for d in self.dimensions])
+        )
+
+    def worst_case(self) -> np.ndarray:
+        """Worst-case half bands ``sum_j |S_ij| T_j/2`` [output units], shape (n_out,)."""
+        return np.asarray(worst_case_band(self.matrix, self.half_tolerances)).reshape(-1)
+
+    def rss(self) -> np.ndarray:
+        """RSS half bands ``sqrt(sum_j (S_ij T_j/2)^2)`` [output units], shape (n_out,)."""
+        return np.asarray(rss_band(self.matrix, self.half_tolerances)).reshape(-1)
+
+    def row(self, name: str) -> np.ndarray:
+        """The sensitivities of the output called ``name``, shape (n_dim,)."""
+        for i, output in enumerate(self.outputs):
+            if output.name == name:
+                return self.matrix[i]
+        raise ClearancePinError(
+            f"no output {name!r}; the outputs are {', '.join(o.name for o in self.outputs)}"
+        )
+
+
+def dimension_columns(
+    model: pin.Model,
+    data: pin.Data,
+    dimensions: tuple[Dimension, ...],
+    frame_id: int,
+    masks: list[np.ndarray] | None = None,
+) -> np.ndarray:
+    """Spatial Jacobian columns (world, at the world origin) of the virtual joints, shape (6, n_dim).
+
+    Zero for the dimensions whose subtree does not carry ``frame_id``. Needs the forward
+    kinematics in ``data`` (``data.oMi``); ``masks`` are the dimensions'
+    :func:`~clearance_pin.tolerance.dimensions.affected_frames`, computed if not given.
+    """
+    if masks is None:
+        masks = [affected_frames(model, d) for d in dimensions]
+    columns = np.zeros((6, len(dimensions)))
+    for k, dimension in enumerate(dimensions):
+        if not masks[k][frame_id]:
+            continue
+        oMJ = data.oMi[dimension.parent_joint_id]
+        axis = oMJ.rotation @ np.asarray(dimension.axis_in_parent_joint)
+        if dimension.kind == "length":
+            columns[:3, k] = axis
+        else:
+            point = oMJ.act(np.asarray(dimension.point_in_parent_joint))
+            columns[:3, k] = np.cross(point, axis)
+            columns[3:, k] = axis
+    return columns
+
+
+def sensitivities(
+    mechanism,
+    outputs,
+    q: np.ndarray | None = None,
+    dimensions: tuple[Dimension, ...] | None = None,
+    closed: bool = False,
+) -> Sensitivities:
+    """Sensitivities ``S = dy/dd`` of the outputs at a configuration [F].
+
+    Args:
+        mechanism: :class:`~clearance_pin.mechanism.Mechanism`.
+        outputs: :class:`Output` objects or spec strings (:func:`parse_output`).
+        q: configuration (nq,), driven joints at their values (default: the nominal one); the
+            loops are closed first unless ``closed``.
+        dimensions: default: ``mechanism.dimensions``.
+        closed: ``q`` already closes the loops (skip :meth:`Mechanism.configure`).
+
+    Returns:
+        :class:`Sensitivities`.
+
+    Raises:
+        ClearancePinError: no dimensions; a singular position (``Phi_q`` rank-deficient).
+        ModelError: a dimension that the passive joints cannot follow (overconstrained loop).
+    """
+    model = mechanism.model
+    dimensions = tuple(mechanism.dimensions if dimensions is None else dimensions)
+    if not dimensions:
+        raise ClearancePinError(
+            f"{mechanism.source}: no toleranced dimension; add <dimension> "
+            "elements to the <clearance_pin> block"
+        )
+    outputs = tuple(o if isinstance(o, Output) else parse_output(model, o) for o in outputs)
+    if not closed:
+        q = mechanism.configure(q).q
+    q = np.asarray(q, dtype=float)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    pin.computeJointJacobians(model, data, q)
+    passive = loop_passive_indices(mechanism)
+    masks = [affected_frames(model, d) for d in dimensions]
+    s_passive, conditioning = _passive_sensitivities(mechanism, data, dimensions, passive, masks)
+    dq = np.zeros((model.nv, len(dimensions)))
+    dq[passive] = s_passive
+    matrix = (
+        np.vstack([_output_row(model, data, dimensions, o, dq, masks) for o in outputs])
+        if outputs
+        else np.zeros((0, len(dimensions)))
+    )
+    return Sensitivities(
+        q.copy(),
+        outputs,
+        dimensions,
+        output_values(model, data, q, outputs),
+        matrix,
+        s_passive,
+        tuple(passive),
+        conditioning,
+    )
+
+
+def loop_passive_indices(mechanism) -> list[int]:
+    """Velocity indices of the passive joints that carry a loop frame (the unknowns ``q``).
+
+    A passive joint outside every loop (a free-hanging link) is not determined by the closure;
+    it keeps its value (``dq = 0``)."""
+    model = mechanism.model
+    supporting: set[int] = set()
+    for loop in mechanism.loop_joints:
+        for frame in (loop.frame_a, loop.frame_b):
+            supporting.update(model.supports[model.frames[frame].parentJoint])
+    in_loops = {model.joints[j].idx_v for j in supporting if j > 0}
+    return [v for v in passive_velocity_indices(mechanism) if v in in_loops]
+
+
+def _passive_sensitivities(
+    mechanism, data: pin.Data, dimensions, passive, masks
+) -> tuple[np.ndarray, float]:
+    """``S_q = -Phi_q^+ Phi_d`` (least squares on length-scaled rows) and the conditioning."""
+    model = mechanism.model
+    if not mechanism.loop_joints:
+        return np.zeros((0, len(dimensions))), 1.0
+    length = mechanism.length_scale()
+    _, selections = closure_residual(mechanism, data)
+    phi_q, phi_d, weights = [], [], []
+    for loop, rows, oMc in selections:
+        to_c = oMc.inverse().action
+        j_ab = pin.getFrameJacobian(model, data, loop.frame_b, pin.WORLD) - pin.getFrameJacobian(
+            model, data, loop.frame_a, pin.WORLD
+        )
+        d_ab = dimension_columns(model, data, dimensions, loop.frame_b, masks) - dimension_columns(
+            model, data, dimensions, loop.frame_a, masks
+        )
+        phi_q.append((to_c @ j_ab)[rows][:, passive])
+        phi_d.append((to_c @ d_ab)[rows])
+        weights.append([1.0 if c < ALPHA else length for c in rows])
+    w = np.concatenate(weights)[:, None]
+    a, b = w * np.vstack(phi_q), w * np.vstack(phi_d)
+    if not passive:
+        a = np.zeros((a.shape[0], 0))
+    singular = np.linalg.svd(a, compute_uv=False) if a.size else np.zeros(0)
+    conditioning = float(singular[-1] / singular[0]) if singular.size and singular[0] > 0 else 0.0
+    if a.shape[1] and (singular.size < a.shape[1] or conditioning < SINGULAR_TOL):
+        raise ClearancePinError(
+            f"{mechanism.source}: singular position (conditioning "
+            f"{conditioning:.2e} of the loop closure): the sensitivities are "
+            "unbounded here"
+        )
+    if conditioning < 1e-6:
+        warnings.warn(
+            f"loop closure conditioning {conditioning:.1e}: near a singular position, "
+            "the first-order sensitivities lose accuracy",
+            ConditioningWarning,
+            stacklevel=3,
+        )
+    s = np.linalg.lstsq(a, -b, rcond=None)[0] if a.shape[1] else np.zeros((0, b.shape[1]))
+    misfit = np.linalg.norm(a @ s + b, axis=0)
+    scale = np.maximum(np.linalg.norm(b, axis=0), 1e-300)
+    for k, dimension in enumerate(dimensions):
+        if misfit[k] > CONSISTENCY_TOL * scale[k]:
+            raise ModelError(
+                mechanism.source,
+                f"<dimension name='{dimension.name}'>",
+                "the passive joints cannot follow this dimension (the loop is "
+                "overconstrained in its direction, e.g. an out-of-plane length of a "
+                f"planar loop; {misfit[k] / scale[k]:.1e} of its effect is left): "
+                "only the joints' play could absorb it; remove it or change direction",
+            )
+    return s, conditioning
+
+
+def _output_row(model, data, dimensions, output: Output, dq: np.ndarray, masks) -> np.ndarray:
+    if output.kind == "joint":
+        return dq[model.joints[output.index].idx_v].copy()
+    twist = pin.getFrameJacobian(model, data, output.index, pin.WORLD) @ dq + dimension_columns(
+        model, data, dimensions, output.index, masks
+    )
+    if output.kind == "orientation":
+        return twist[3 + output.component]
+    point = data.oMf[output.index].translation
+    linear = twist[:3] - np.cross(point, twist[3:].T).T  # velocity of the frame origin
+    return linear[output.component]
+
+
+def _joint_value(model: pin.Model, q: np.ndarray, joint_id: int) -> float:
+    joint = model.joints[joint_id]
+    if joint.nq == 2:  # unbounded revolute, (cos, sin)
+        return float(np.arctan2(q[joint.idx_q + 1], q[joint.idx_q]))
+    return float(q[joint.idx_q])
+
+
+def output_values(model: pin.Model, data: pin.Data, q: np.ndarray, outputs) -> np.ndarray:
+    """Output values [m or rad] at ``q`` (needs ``framesForwardKinematics`` in ``data``).
+
+    Orientation outputs are components of the world rotation vector ``log3(oR_f)``."""
+    values = []
+    for output in outputs:
+        if output.kind == "joint":
+            values.append(_joint_value(model, q, output.index))
+        elif output.kind == "position":
+            values.append(float(data.oMf[output.index].translation[output.component]))
+        else:
+            values.append(float(pin.log3(data.oMf[output.index].rotation)[output.component]))
+    return np.array(values)
+
+
+def output_deviations(
+    model0: pin.Model, q0: np.ndarray, model1: pin.Model, q1: np.ndarray, outputs
+) -> np.ndarray:
+    """Exact output deviations from (model0, q0) to (model1, q1) [m or rad], shape (n_out,).
+
+    Positions: difference of world coordinates; orientations: the world rotation vector
+    ``log3(oR_f1 oR_f0^T)``; joints: ``pin.difference`` of the coordinate."""
+    d0, d1 = model0.createData(), model1.createData()
+    pin.framesForwardKinematics(model0, d0, q0)
+    pin.framesForwardKinematics(model1, d1, q1)
+    dv = pin.difference(model0, q0, q1)
+    values = []
+    for output in outputs:
+        if output.kind == "joint":
+            values.append(float(dv[model0.joints[output.index].idx_v]))
+        elif output.kind == "position":
+            values.append(
+                float(
+                    d1.oMf[output.index].translation[output.component]
+                    - d0.oMf[output.index].translation[output.component]
+                )
+            )
+        else:
+            rotation = d1.oMf[output.index].rotation @ d0.oMf[output.index].rotation.T
+            values.append(float(pin.log3(rotation)[output.component]))
+    return np.array(values)

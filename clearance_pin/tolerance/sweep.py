@@ -1,0 +1,504 @@
+r"""Tolerance bands over a motion: a driven joint swept through a cycle [F].
+
+P. Flores, "A methodology for quantifying the kinematic position errors due to manufacturing
+and assembly tolerances", Strojniski vestnik - J. Mech. Eng. (2011) [F], tabulates the
+sensitivities and bands of a slider-crank at 25 crank positions. :func:`sweep` does this for
+any mechanism: the driven joint takes the values
+
+.. math:: q_{drive}(\varphi) = q_0 + s \, \varphi, \qquad \varphi_k = \varphi_0 + k\,\Delta\varphi
+
+(``s = -1`` for a clockwise crank: the convention of the Flores case, ``theta2 = -phi`` with
+``phi`` from top dead centre), the loops are closed on the same assembly branch all along
+(steps of at most :data:`MAX_STEP` from the model's nominal configuration), and at every
+position it gives the sensitivities (:mod:`.sensitivity`), the worst-case and RSS bands, and
+optionally exact Monte Carlo runs and the exact worst case (:mod:`.monte_carlo`).
+
+:func:`cycle_maximum` finds the largest band over the *continuous* cycle (a grid, then a
+golden-section refinement), :func:`clearance_budget` sets the clearance-induced deviation of the
+equilibrium engine (METHOD.md section 1) beside the tolerance bands, and :func:`plot_sweep`
+draws them (matplotlib, the ``plot`` extra).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ClearancePinError
+from ..progress import Progress
+from .monte_carlo import BatchClosure, MonteCarloResult, WorstCase, exact_worst_case, monte_carlo
+from .sensitivity import Output, Sensitivities, parse_output, sensitivities
+
+__all__ = [
+    "Budget",
+    "Sweep",
+    "clearance_budget",
+    "closed_configuration",
+    "cycle_maximum",
+    "driven_joint",
+    "plot_sweep",
+    "sweep",
+]
+
+#: largest step of the driven joint between two loop closures [rad] (keeps the branch)
+MAX_STEP = math.radians(5.0)
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """Sensitivities and bands at every position of a motion.
+
+    Attributes:
+        joint: the driven joint swept.
+        phi: the motion parameter at each position [rad], shape (n_pos,).
+        sign, offset: ``q_drive = offset + sign * phi`` [rad].
+        configurations: closed configurations, shape (n_pos, nq).
+        outputs, dimensions: as in :class:`~.sensitivity.Sensitivities`.
+        values: nominal outputs [m or rad], shape (n_pos, n_out).
+        matrix: sensitivities ``S`` [output/dimension], shape (n_pos, n_out, n_dim).
+        worst, rss: half bands [output units], shape (n_pos, n_out).
+        uniform, normal: Monte Carlo results per position (empty without samples).
+        exact: exact worst cases per position (empty unless asked).
+        seconds: wall time of the sweep.
+    """
+
+    joint: str
+    phi: np.ndarray
+    sign: float
+    offset: float
+    configurations: np.ndarray
+    outputs: tuple[Output, ...]
+    dimensions: tuple
+    values: np.ndarray
+    matrix: np.ndarray
+    worst: np.ndarray
+    rss: np.ndarray
+    uniform: tuple[MonteCarloResult, ...] = ()
+    normal: tuple[MonteCarloResult, ...] = ()
+    exact: tuple[WorstCase, ...] = ()
+    seconds: float = 0.0
+
+    @property
+    def phi_deg(self) -> np.ndarray:
+        """The motion parameter [deg]."""
+        return np.degrees(self.phi)
+
+    def index(self, name: str) -> int:
+        """Row of the output called ``name``."""
+        for i, output in enumerate(self.outputs):
+            if output.name == name:
+                return i
+        raise ClearancePinError(
+            f"no output {name!r}; the outputs are {', '.join(o.name for o in self.outputs)}"
+        )
+
+
+def driven_joint(mechanism, joint: str | None = None) -> int:
+    """Pinocchio id of the joint to sweep: ``joint``, or the mechanism's only driven joint."""
+    model = mechanism.model
+    if joint is not None:
+        if not model.existJointName(joint) or model.getJointId(joint) == 0:
+            raise ClearancePinError(
+                f"unknown joint {joint!r}; the joints are {', '.join(model.names[1:])}"
+            )
+        joint_id = model.getJointId(joint)
+    else:
+        driven = [j.joint_id for j in mechanism.tree_joints if j.driven]
+        if len(driven) != 1:
+            raise ClearancePinError(
+                f"{mechanism.source}: {len(driven)} driven joints; name the joint to sweep"
+            )
+        joint_id = driven[0]
+    if model.joints[joint_id].nv != 1:
+        raise ClearancePinError(f"joint {model.names[joint_id]!r} is not a 1-DOF joint")
+    return joint_id
+
+
+def _joint_value(model, q: np.ndarray, joint_id: int) -> float:
+    joint = model.joints[joint_id]
+    if joint.nq == 2:
+        return math.atan2(q[joint.idx_q + 1], q[joint.idx_q])
+    return float(q[joint.idx_q])
+
+
+def _set_joint(model, q: np.ndarray, joint_id: int, value: float) -> np.ndarray:
+    q = q.copy()
+    joint = model.joints[joint_id]
+    if joint.nq == 2:
+        q[joint.idx_q : joint.idx_q + 2] = (math.cos(value), math.sin(value))
+    else:
+        q[joint.idx_q] = value
+    return q
+
+
+def closed_configuration(
+    mechanism, joint_id: int, value: float, q_from: np.ndarray, value_from: float | None = None
+) -> np.ndarray:
+    """Close the loops with the joint at ``value``, walking from ``q_from`` (a closed
+    configuration) in steps of at most :data:`MAX_STEP`, so that the branch is kept."""
+    model = mechanism.model
+    start = _joint_value(model, q_from, joint_id) if value_from is None else value_from
+    steps = max(1, math.ceil(abs(value - start) / MAX_STEP))
+    q = q_from
+    for k in range(1, steps + 1):
+        q = mechanism.configure(
+            _set_joint(model, q, joint_id, start + (value - start) * k / steps)
+        ).q
+    return q
+
+
+def sweep(
+    mechanism,
+    outputs,
+    joint: str | None = None,
+    positions: int = 25,
+    start: float = 0.0,
+    stop: float = 2.0 * math.pi,
+    clockwise: bool = False,
+    offset: float = 0.0,
+    samples: int = 0,
+    seed: int = 0,
+    exact: bool = False,
+    progress: bool | None = None,
+) -> Sweep:
+    """Sensitivities and bands over a cycle of a driven joint [F].
+
+    Args:
+        mechanism: :class:`~clearance_pin.mechanism.Mechanism` with ``<dimension>`` elements.
+        outputs: output specs (``"x4=slider.x"``) or :class:`~.sensitivity.Output` objects.
+        joint: the joint to sweep (default: the only driven joint).
+        positions: number of positions, ``phi`` from ``start`` to ``stop`` inclusive.
+        start, stop: range of ``phi`` [rad].
+        clockwise: ``q_drive = offset - phi`` (else ``offset + phi``).
+        offset: ``q_drive`` at ``phi = 0`` [rad].
+        samples: Monte Carlo samples per position and distribution (0: none).
+        seed: seed of the Monte Carlo runs (position k uses ``seed + k``).
+        exact: also the exact worst case at every position.
+        progress: progress bar on stderr (None: on a terminal, for runs with Monte Carlo).
+
+    Returns:
+        :class:`Sweep`.
+    """
+    started = time.perf_counter()
+    model = mechanism.model
+    if positions < 1:
+        raise ClearancePinError(f"positions must be >= 1, got {positions}")
+    joint_id = driven_joint(mechanism, joint)
+    outputs = tuple(o if isinstance(o, Output) else parse_output(model, o) for o in outputs)
+    sign = -1.0 if clockwise else 1.0
+    phi = np.linspace(start, stop, positions) if positions > 1 else np.array([start])
+    q = mechanism.configure().q
+    current = _joint_value(model, q, joint_id)
+    bar = Progress(
+        positions,
+        "sweep",
+        enabled=progress if progress is not None else (None if samples else False),
+    )
+    rows: list[Sensitivities] = []
+    uniform, normal, worst_cases, configurations = [], [], [], []
+    for k, angle in enumerate(phi):
+        target = offset + sign * angle
+        q = closed_configuration(mechanism, joint_id, target, q, current)
+        current = target
+        configurations.append(q)
+        linear = sensitivities(mechanism, outputs, q, closed=True)
+        rows.append(linear)
+        if samples or exact:
+            closure = BatchClosure(mechanism, outputs, q, linear=linear)
+            if samples:
+                for runs, law in ((uniform, "uniform"), (normal, "normal")):
+                    runs.append(
+                        monte_carlo(
+                            mechanism,
+                            outputs,
+                            samples=samples,
+                            distribution=law,
+                            seed=seed + k,
+                            closure=closure,
+                            progress=False,
+                        )
+                    )
+            if exact:
+                worst_cases.append(exact_worst_case(mechanism, outputs, closure=closure))
+        bar.update()
+    bar.close()
+    return Sweep(
+        model.names[joint_id],
+        phi,
+        sign,
+        offset,
+        np.array(configurations),
+        outputs,
+        rows[0].dimensions,
+        np.array([r.values for r in rows]),
+        np.array([r.matrix for r in rows]),
+        np.array([r.worst_case() for r in rows]),
+        np.array([r.rss() for r in rows]),
+        tuple(uniform),
+        tuple(normal),
+        tuple(worst_cases),
+        time.perf_counter() - started,
+    )
+
+
+def _band_at(mechanism, result: Sweep, output: int, band: str, angle: float) -> float:
+    joint_id = driven_joint(mechanism, result.joint)
+    nearest = int(np.argmin(np.abs(result.phi - angle)))
+    q = closed_configuration(
+        mechanism,
+        joint_id,
+        result.offset + result.sign * angle,
+        result.configurations[nearest],
+        result.offset + result.sign * result.phi[nearest],
+    )
+    linear = sensitivities(mechanism, (result.outputs[output],), q, closed=True)
+    return float((linear.worst_case() if band == "worst" else linear.rss())[0])
+
+
+def cycle_maximum(
+    mechanism,
+    result: Sweep,
+    output: str,
+    band: str = "worst",
+    grid: int = 361,
+    tol: float = 1e-9,
+    fine: Sweep | None = None,
+) -> tuple[float, float]:
+    """Largest band of an output over the continuous range of the sweep, and where.
+
+    A grid of ``grid`` positions over ``[phi_0, phi_end]``, then a golden-section search
+    in the two grid intervals around each grid maximum within ``1e-6`` of the best; ties
+    (symmetric mechanisms) go to the smallest ``phi``.
+
+    Args:
+        mechanism: the mechanism of the sweep.
+        result: a :class:`Sweep` (its range and output definitions).
+        output: output name.
+        band: ``"worst"`` or ``"rss"``.
+        grid: grid size.
+        tol: golden-section tolerance on ``phi`` [rad].
+        fine: a prebuilt grid sweep of the same range and outputs (re-use it for several
+            outputs and bands), else one is computed.
+
+    Returns:
+        ``(maximum band [output units], phi [rad])``.
+    """
+    if band not in ("worst", "rss"):
+        raise ClearancePinError(f"band must be 'worst' or 'rss', got {band!r}")
+    if fine is None:
+        fine = sweep(
+            mechanism,
+            result.outputs,
+            result.joint,
+            grid,
+            result.phi[0],
+            result.phi[-1],
+            result.sign < 0,
+            result.offset,
+        )
+    i = fine.index(output)
+    values = (fine.worst if band == "worst" else fine.rss)[:, i]
+    top = float(np.max(values))
+    best_value, best_phi = -math.inf, math.nan
+    step = fine.phi[1] - fine.phi[0] if len(fine.phi) > 1 else 0.0
+    for k in np.flatnonzero(values >= top * (1.0 - 1e-6)):
+        lo, hi = max(fine.phi[k] - step, fine.phi[0]), min(fine.phi[k] + step, fine.phi[-1])
+        phi_k, value_k = _golden(lambda a: _band_at(mechanism, fine, i, band, a), lo, hi, tol)
+        if value_k < values[k]:
+            phi_k, value_k = float(fine.phi[k]), float(values[k])
+        if value_k > best_value * (1.0 + 1e-12):
+            best_value, best_phi = value_k, phi_k
+    return best_value, best_phi
+
+
+def _golden(f, lo: float, hi: float, tol: float) -> tuple[float, float]:
+    """Maximise a unimodal ``f`` on ``[lo, hi]``; returns (x, f(x))."""
+    a, b = lo, hi
+    c, d = b - _GOLDEN * (b - a), a + _GOLDEN * (b - a)
+    fc, fd = f(c), f(d)
+    while b - a > tol:
+        if fc >= fd:
+            b, d, fd = d, c, fc
+            c = b - _GOLDEN * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + _GOLDEN * (b - a)
+            fd = f(d)
+    candidates = [(fc, c), (fd, d), (f(lo), lo), (f(hi), hi)]
+    value, x = max(candidates, key=lambda t: (t[0], -t[1]))
+    return x, value
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Clearance-induced deviation beside the tolerance bands, per position [m or rad].
+
+    Attributes:
+        phi: positions [rad], shape (n_pos,).
+        output: the output name.
+        clearance: deviation of the loaded mechanism in its clearances (equilibrium engine,
+            signed), shape (n_pos,).
+        worst, rss: tolerance half bands, shape (n_pos,).
+    """
+
+    phi: np.ndarray
+    output: str
+    clearance: np.ndarray
+    worst: np.ndarray
+    rss: np.ndarray
+
+    @property
+    def total_worst(self) -> np.ndarray:
+        """``|clearance| + worst``: the largest deviation from nominal, worst case."""
+        return np.abs(self.clearance) + self.worst
+
+    @property
+    def total_rss(self) -> np.ndarray:
+        """``|clearance| + rss``: the same with the statistical band."""
+        return np.abs(self.clearance) + self.rss
+
+
+def clearance_budget(mechanism, result: Sweep, output: str, loads=None, gravity=None) -> Budget:
+    """The combined budget of an output: clearance deviation and tolerance bands over a sweep.
+
+    At each position the equilibrium engine (:meth:`Mechanism.solve`, the model's loads unless
+    ``loads`` is given) places the parts in their clearances; the output's deviation is read
+    from :meth:`Equilibrium.frame_displacement` (a frame position or orientation output) and
+    set beside the tolerance bands; deviations add (clearances shift the mean, tolerances
+    spread around it).
+    """
+    i = result.index(output)
+    target = result.outputs[i]
+    if target.kind == "joint":
+        raise ClearancePinError(
+            "the clearance budget needs a frame output (position or "
+            "orientation), not a joint coordinate"
+        )
+    deviations = []
+    for q in result.configurations:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # near dead centres the engine warns; values hold
+            equilibrium = mechanism.solve(loads=loads, q=q, gravity=gravity)
+        translation, rotation = equilibrium.frame_displacement(target.target)
+        vector = translation if target.kind == "position" else rotation
+        deviations.append(float(vector[target.component]))
+    return Budget(
+        result.phi.copy(),
+        output,
+        np.array(deviations),
+        result.worst[:, i].copy(),
+        result.rss[:, i].copy(),
+    )
+
+
+def plot_sweep(
+    result: Sweep, path, budget: Budget | None = None, scale: dict | None = None, title: str = ""
+) -> None:
+    """Write a PNG of the bands over the cycle, with the Monte Carlo points and the budget.
+
+    One panel per output: the worst-case band (shaded), the RSS band (lines), the uniform Monte
+    Carlo deviations (points) and the exact worst case (markers); with ``budget``, a last
+    panel with the clearance deviation and the total bands around it.
+
+    Args:
+        result: a :class:`Sweep`.
+        path: PNG file.
+        budget: optional :func:`clearance_budget` result.
+        scale: unit per output kind, default ``{"m": (1e6, "um"), "rad": (1e3, "mrad")}``.
+        title: figure title.
+
+    Raises:
+        ClearancePinError: matplotlib is missing (``pip install clearance_pin[plot]``).
+    """
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise ClearancePinError(
+            "plotting needs matplotlib: pip install clearance_pin[plot]"
+        ) from None
+    scale = scale or {"m": (1e6, "um"), "rad": (1e3, "mrad")}
+    panels = len(result.outputs) + (budget is not None)
+    fig, axes = plt.subplots(panels, 1, figsize=(10, 2.8 * panels), sharex=True, squeeze=False)
+    phi = result.phi_deg
+    for i, output in enumerate(result.outputs):
+        ax = axes[i, 0]
+        factor, unit = scale[output.unit]
+        ax.fill_between(
+            phi,
+            -factor * result.worst[:, i],
+            factor * result.worst[:, i],
+            color="tab:blue",
+            alpha=0.2,
+            label="worst case",
+        )
+        ax.plot(phi, factor * result.rss[:, i], color="tab:orange", label="RSS (3 sigma)")
+        ax.plot(phi, -factor * result.rss[:, i], color="tab:orange")
+        if result.uniform:
+            for k, run in enumerate(result.uniform):
+                pts = factor * run.points[:, i]
+                ax.plot(
+                    np.full(pts.shape, phi[k]),
+                    pts,
+                    ".",
+                    color="k",
+                    ms=1,
+                    alpha=0.3,
+                    label="Monte Carlo (uniform, exact closure)" if k == 0 else None,
+                )
+        if result.normal:
+            three = factor * np.array([r.three_sigma[i] for r in result.normal])
+            ax.plot(phi, three, "x", color="tab:red", ms=4, label="Monte Carlo 3 s (normal)")
+            ax.plot(phi, -three, "x", color="tab:red", ms=4)
+        if result.exact:
+            ax.plot(
+                phi,
+                factor * np.array([w.upper[i] for w in result.exact]),
+                "v",
+                color="tab:green",
+                ms=3,
+                label="exact worst case",
+            )
+            ax.plot(
+                phi,
+                factor * np.array([w.lower[i] for w in result.exact]),
+                "^",
+                color="tab:green",
+                ms=3,
+            )
+        ax.set_ylabel(f"d{output.name} [{unit}]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    if budget is not None:
+        ax = axes[-1, 0]
+        output = result.outputs[result.index(budget.output)]
+        factor, unit = scale[output.unit]
+        c = factor * budget.clearance
+        ax.plot(phi, c, color="k", label="clearances (equilibrium)")
+        ax.fill_between(
+            phi,
+            c - factor * budget.worst,
+            c + factor * budget.worst,
+            color="tab:blue",
+            alpha=0.2,
+            label="+ tolerances, worst case",
+        )
+        ax.plot(phi, c + factor * budget.rss, color="tab:orange", label="+ tolerances, RSS")
+        ax.plot(phi, c - factor * budget.rss, color="tab:orange")
+        ax.set_ylabel(f"d{budget.output} total [{unit}]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    axes[-1, 0].set_xlabel("phi [deg]")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
