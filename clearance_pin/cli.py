@@ -41,6 +41,9 @@ def _solve(args: argparse.Namespace) -> int:
         if report is not None:
             print()
             print(report.table())
+            if not report.ok and equilibrium.formulation == "linear":
+                print("(the small-displacement model's own second-order error shows here; "
+                      "solve with --exact for a pose that sits on the real boundaries)")
     return 0 if equilibrium.ok and (report is None or report.ok) else 1
 
 

@@ -20,28 +20,12 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from .poses import clearance_frames
+
 
 def relative_placements(equilibrium) -> dict[str, pin.SE3]:
     """Child clearance frame in the parent clearance frame, per joint, at the solved pose."""
-    mechanism = equilibrium.mechanism
-    model = mechanism.model
-    nominal = equilibrium.configuration
-    placed = equilibrium.body_placements
-    relative = {}
-    for joint in mechanism.tree_joints:
-        i = joint.joint_id
-        parent = model.parents[i]
-        clearance = pin.SE3(joint.rotation, np.zeros(3))
-        parent_side = placed[parent] * nominal.oMi[parent].inverse() * nominal.oMi[i] * clearance
-        relative[joint.name] = parent_side.inverse() * (placed[i] * clearance)
-    for loop in mechanism.loop_joints:
-        frame_a, frame_b = model.frames[loop.frame_a], model.frames[loop.frame_b]
-        side_a = (
-            placed[frame_a.parentJoint] * frame_a.placement * pin.SE3(loop.rotation, np.zeros(3))
-        )
-        side_b = placed[frame_b.parentJoint] * frame_b.placement * nominal.bMc[loop.name]
-        relative[loop.name] = side_a.inverse() * side_b
-    return relative
+    return {name: frames.relative for name, frames in clearance_frames(equilibrium).items()}
 
 
 def boundary_errors(equilibrium) -> dict[str, float]:

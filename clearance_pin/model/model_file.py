@@ -192,7 +192,9 @@ class _Reader:
             return None
         try:
             dirs = [str(mesh_dir)] if mesh_dir is not None else []
-            return pin.buildGeomFromUrdfString(model, self.text, pin.GeometryType.COLLISION, dirs)
+            return pin.buildGeomFromUrdfString(
+                model, self.text, pin.GeometryType.COLLISION, package_dirs=dirs
+            )
         except (RuntimeError, ValueError) as exc:
             raise ModelError(self.source, "<collision>", f"cannot be loaded: {exc}") from None
 
