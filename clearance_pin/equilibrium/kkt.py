@@ -19,7 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 POLISH_TOL = 1e-14
-ACCEPT_KKT = 1e-10
+ACCEPT_KKT = 1e-12  # polished answers reach ~1e-15; a load component of 1e-10 must not pass
+UNLOADED = 1e-9  # a contact carrying less than this share of the largest force is unloaded
+PROXIMAL = 1e-12
 ACTIVE_GAP = 1e-6
 
 
@@ -92,7 +94,16 @@ def residuals(stack: StackedContacts, objective, y, multipliers, signs) -> dict[
     }
 
 
-def newton(stack: StackedContacts, objective, y, multipliers, signs, active, iterations: int = 12):
+def newton(
+    stack: StackedContacts,
+    objective,
+    y,
+    multipliers,
+    signs,
+    active,
+    iterations: int = 12,
+    accept: float = ACCEPT_KKT,
+):
     """Newton on the KKT system of ``active``; returns (y, lambda_active) or None."""
     size, count = stack.size, active.size
     kkt = np.zeros((size + count, size + count))
@@ -114,24 +125,50 @@ def newton(stack: StackedContacts, objective, y, multipliers, signs, active, ite
         kkt[:size, :size] = stack.hessian(full)
         kkt[:size, size:] = gradients.T
         kkt[size:, :size] = gradients
-        try:
-            step = np.linalg.solve(kkt, -residual)
-        except np.linalg.LinAlgError:
-            step = np.linalg.lstsq(kkt, -residual, rcond=None)[0]
-        if not np.isfinite(step).all():
+        # proximal term on the multipliers: redundant contacts sharing a load make the KKT matrix
+        # singular (forces not unique); this keeps them bounded and leaves y's solution exact
+        kkt[size:, size:] = -PROXIMAL * np.eye(count)
+        step = _kkt_step(kkt, residual)
+        if step is None:
             return None
         y += step[:size]
         lam += step[size:]
-    return (y, lam) if np.abs(residual).max() < 1e-11 else None
+    return (y, lam) if np.abs(residual).max() <= accept else None
+
+
+def _kkt_step(kkt: np.ndarray, residual: np.ndarray):
+    """Newton step, by LU; by least squares when the KKT matrix is singular (redundant contacts
+    sharing the load, so the multipliers are not unique: LU then returns a huge, wrong step)."""
+    try:
+        step = np.linalg.solve(kkt, -residual)
+        if (
+            np.isfinite(step).all()
+            and np.abs(kkt @ step + residual).max() <= 1e-9 * (1.0 + np.abs(residual).max())
+            and np.abs(step).max() < 1e6
+        ):
+            return step
+    except np.linalg.LinAlgError:
+        pass
+    step = np.linalg.lstsq(kkt, -residual, rcond=None)[0]
+    return step if np.isfinite(step).all() else None
 
 
 def active_set_solve(
-    stack: StackedContacts, objective, y, multipliers, signs=None, rounds: int = 4
+    stack: StackedContacts,
+    objective,
+    y,
+    multipliers,
+    signs=None,
+    rounds: int = 8,
+    accept: float = ACCEPT_KKT,
 ):
-    """Verified active-set Newton from a guess (y, multipliers); None if it cannot be verified.
+    """Verified active-set method from a guess (y, multipliers); None if it cannot be verified.
 
-    The active set starts as the contacts in touch or carrying a multiplier; contacts whose
-    multiplier turns negative are released, violated ones are added, for a few rounds.
+    The active set starts as the contacts in touch or carrying a multiplier. Each round solves its
+    KKT system by Newton's method; a contact whose multiplier turns negative is released, a
+    violated one is added, and when the set cannot hold the load (the stationarity residual has a
+    component along motions that keep every contact of the set), the parts move along that
+    motion to the first contact it meets, which joins the set (a primal active-set step).
 
     Returns:
         (y, multipliers (all contacts), signs, residuals) or None.
@@ -140,27 +177,88 @@ def active_set_solve(
     phi = stack.values(y, None)
     largest = max(1.0, float(np.max(multipliers, initial=0.0)))
     active = np.flatnonzero((phi > -ACTIVE_GAP) | (multipliers > 1e-9 * largest))
+    lam = multipliers.copy()
     for _ in range(rounds):
         if active.size == 0:
             return None
-        solved = newton(stack, objective, y, multipliers, signs, active)
+        solved = newton(stack, objective, y, lam, signs, active, accept=accept)
         if solved is None:
-            return None
+            stepped = _step_to_next_contact(stack, objective, y, signs, active)
+            if stepped is None:
+                return None
+            y, added = stepped
+            signs = stack.sides(y)
+            active = np.union1d(active, [added])
+            continue
         y_new, lam_active = solved
         negative = active[lam_active < -1e-12]
         if negative.size:
             active = np.setdiff1d(active, negative)
             continue
         phi_new = stack.values(y_new, None)
-        violated = np.flatnonzero(phi_new > 1e-13)
+        violated = np.flatnonzero(phi_new > max(1e-13, accept))
         if violated.size:
             signs = stack.sides(y_new)
             active = np.union1d(active, violated)
             continue
         lam_new = np.zeros(stack.count)
-        lam_new[active] = np.maximum(lam_active, 0.0)
+        lam_new[active] = _minimum_norm_forces(stack, objective, y_new, signs, active, lam_active)
         measured = residuals(stack, objective, y_new, lam_new, signs)
-        if max(measured.values()) <= ACCEPT_KKT:
+        if max(measured.values()) <= accept:
             return y_new, lam_new, signs, measured
         return None
     return None
+
+
+def _minimum_norm_forces(stack, objective, y, signs, active, newton_multipliers):
+    """Contact multipliers at a solved y: the minimum-norm set balancing the load when it is
+    non-negative (statically indeterminate contacts share the load evenly), else Newton's."""
+    _, gradients = stack.evaluate(y, signs)
+    least = np.linalg.lstsq(gradients[active].T, -objective, rcond=None)[0]
+    if np.all(least >= -1e-14):
+        return np.maximum(least, 0.0)
+    return np.maximum(newton_multipliers, 0.0)
+
+
+def _step_to_next_contact(stack: StackedContacts, objective, y, signs, active):
+    """Move along the load's unbalanced part, tangent to the active contacts, to the next contact.
+
+    Returns (new y, index of the contact reached) or None when no contact bounds that motion.
+    """
+    _, gradients = stack.evaluate(y, signs)
+    tangent = null_space_rows(gradients[active])
+    direction = -tangent @ (tangent.T @ objective)
+    if np.linalg.norm(direction) <= 1e-14:
+        return None
+    image = stack.matrix @ y
+    image_d = stack.matrix @ direction
+    best, reached = np.inf, None
+    for j in np.setdiff1d(np.arange(stack.count), active):
+        rows = slice(stack.starts[j], stack.starts[j + 1] if j + 1 < stack.count else None)
+        if stack.is_norm[j]:
+            a = image_d[rows] @ image_d[rows]
+            b = image[rows] @ image_d[rows]
+            c = image[rows] @ image[rows] - 1.0
+            if a <= 0.0:
+                continue
+            t = (-b + np.sqrt(max(b * b - a * c, 0.0))) / a
+        else:
+            slope = image_d[rows][0]
+            if slope == 0.0:
+                continue
+            t = (np.sign(slope) - image[rows][0]) / slope
+        if 0.0 <= t < best:
+            best, reached = t, j
+    if reached is None:
+        return None
+    return y + best * direction, int(reached)
+
+
+def null_space_rows(rows: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of the vectors orthogonal to every row of ``rows`` (r, k)."""
+    size = rows.shape[1]
+    if rows.shape[0] == 0:
+        return np.eye(size)
+    _, s, vt = np.linalg.svd(rows)
+    rank = int(np.sum(s > 1e-12 * max(s[0], 1e-300)))
+    return vt[rank:].T

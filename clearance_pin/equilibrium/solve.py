@@ -15,6 +15,7 @@ import pinocchio as pin
 from ..errors import ConditioningWarning, SolverError
 from ..numerics import cross
 from .cone_solver import backend_for, solve_cone
+from .kkt import UNLOADED
 from .load_terms import gather_body_loads, load_gradient
 from .reduction import ReducedProblem, describe_motion, reduce_geometry, with_load
 from .result import Contact, Equilibrium
@@ -127,7 +128,7 @@ def solve_linear(
             ),
             stacklevel=3,
         )
-    if not equilibrium.ok:
+    if not equilibrium.ok or not solution.polished:
         raise SolverError(
             "the small-displacement solve did not reach a verified optimum",
             solution.status,
@@ -139,6 +140,11 @@ def solve_linear(
 def flat_directions(problem: ReducedProblem, solution) -> np.ndarray:
     r"""Directions (r, k) along which the optimum is not unique although the play bounds them.
 
+    A contact carrying less than :data:`~.kkt.UNLOADED` (1e-9) of the largest contact force counts
+    as unloaded, the same share below which a load component along an unblocked motion is
+    neglected (:data:`~.reduction.UNBOUNDED_FRACTION`): the answer then moves continuously to
+    the minimum-norm point as that share falls through 1e-9, with an energy change of that order.
+
     At a verified optimum with contact set A, a direction d with :math:`G_A d = 0` (it keeps every
     contact) and :math:`\nabla^2 L\, d = 0` (no curvature of the active cones along it) changes
     neither the potential nor feasibility to second order: the load does not see it (for example
@@ -148,7 +154,7 @@ def flat_directions(problem: ReducedProblem, solution) -> np.ndarray:
         return np.zeros((problem.size, 0))
     stack = problem.stack
     largest = float(np.max(solution.multipliers, initial=0.0))
-    active = np.flatnonzero(solution.multipliers > 1e-10 * largest)
+    active = np.flatnonzero(solution.multipliers > UNLOADED * largest)
     _, gradients = stack.evaluate(solution.y, solution.signs)
     rows = np.vstack([gradients[active], stack.hessian(solution.multipliers)])
     scale = max(1.0, float(np.abs(rows).max(initial=0.0)))
