@@ -45,6 +45,9 @@ from .iso286 import (
     tolerance_m,
     tolerance_um,
 )
+from .dimensions import Dimension, parse_dimensions
+from .monte_carlo import MonteCarloResult, WorstCase, exact_worst_case, monte_carlo
+from .sensitivity import Sensitivities, sensitivities
 from .statistics import (
     confidence_for_admissible,
     confidence_from_gamma,
@@ -57,7 +60,23 @@ from .statistics import (
     worst_case_band,
 )
 
+from .sweep import Budget, Sweep, clearance_budget, cycle_maximum, plot_sweep, sweep
+
 __all__ = [
+    "Dimension",
+    "parse_dimensions",
+    "Sensitivities",
+    "sensitivities",
+    "MonteCarloResult",
+    "monte_carlo",
+    "WorstCase",
+    "exact_worst_case",
+    "Sweep",
+    "sweep",
+    "cycle_maximum",
+    "Budget",
+    "clearance_budget",
+    "plot_sweep",
     "GRADES",
     "ISO286_RANGES_MM",
     "ToleranceInputError",
