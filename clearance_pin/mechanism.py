@@ -72,6 +72,7 @@ class Mechanism:
         self.name = name or model.name
         self.collision_model = collision_model
         self.dimensions: tuple = ()
+        self._nominal_closed: np.ndarray | None = None
         self.link_frames = {
             f.name: i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY
         }
@@ -86,9 +87,12 @@ class Mechanism:
         """Place the mechanism at ``q`` (default: nominal), closing every loop.
 
         The driven joints keep their values in ``q``; the passive ones are adjusted so that the
-        frames of every loop joint coincide (:func:`clearance_pin.kinematics.closure.close_loops`).
+        frames of every loop joint coincide (:func:`clearance_pin.kinematics.closure.close_loops`),
+        on the assembly branch of the nominal configuration: the driven joints are moved there
+        from the nearest configuration already closed (the nominal one or the last one), in
+        steps of at most 0.05 rad (or 0.05 of the length scale), closing the loops at each step.
         """
-        from .kinematics.closure import close_loops, closure_residual
+        from .kinematics.closure import close_loops, closure_residual, follow_branch
 
         q = self.q_nominal if q is None else np.asarray(q, dtype=float)
         if q.shape != (self.model.nq,) or not np.all(np.isfinite(q)):
@@ -99,7 +103,9 @@ class Mechanism:
         if self.loop_joints:
             residual, _ = closure_residual(self, self.data)
             if np.max(np.abs(residual), initial=0.0) > 1e-12 * self.length_scale():
-                q = close_loops(self, q)
+                start = self._closed_start(q)
+                q = follow_branch(self, start, q) if start is not None else close_loops(self, q)
+                self._last_closed = q.copy()
                 pin.framesForwardKinematics(self.model, self.data, q)
         oMi = tuple(m.copy() for m in self.data.oMi)
         oMf = tuple(m.copy() for m in self.data.oMf)
@@ -108,6 +114,21 @@ class Mechanism:
             oMc = oMf[loop.frame_a] * pin.SE3(loop.rotation, np.zeros(3))
             bMc[loop.name] = oMf[loop.frame_b].inverse() * oMc
         return Configuration(q.copy(), oMi, oMf, bMc)
+
+    def _closed_start(self, q: np.ndarray) -> np.ndarray | None:
+        """The closed configuration nearest to ``q`` in the driven joints (None before loading)."""
+        candidates = [
+            c for c in (getattr(self, "_last_closed", None), self._nominal_closed) if c is not None
+        ]
+        if not candidates:
+            return None
+        from .kinematics.closure import driven_coordinates
+
+        driven, scales = driven_coordinates(self)
+        return min(
+            candidates,
+            key=lambda c: float(np.max(np.abs(c[driven] - q[driven]) / scales, initial=0.0)),
+        )
 
     def length_scale(self) -> float:
         """Characteristic length [m]: the largest distance of a joint origin from the root."""

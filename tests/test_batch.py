@@ -100,3 +100,16 @@ def test_dask_local_cluster():
     local = mechanism.solve_many(cases)
     assert np.allclose(results.torsors("I1"), local.torsors("I1"), rtol=0, atol=1e-15)
     assert results[0].frame_displacement("shaft")[0].shape == (3,)
+
+
+def test_configure_stays_on_the_assembly_branch():
+    """Driving the slider-crank's crank from 60 deg to 0 deg in one call keeps the rod on the
+    nominal branch: the slider at x = r2 + r3 = 0.17 m, not folded back (closed form)."""
+    mechanism = cp.load(MODELS / "slider_crank.urdf")
+    q = mechanism.q_nominal.copy()
+    for degrees in (0.0, 200.0, 330.0):
+        q[0] = -np.radians(degrees)
+        x = mechanism.configure(q).oMf[mechanism.model.getFrameId("slider")].translation[0]
+        theta = -np.radians(degrees)
+        expected = 0.05 * np.cos(theta) + np.sqrt(0.12**2 - (0.05 * np.sin(theta)) ** 2)
+        assert x == pytest.approx(expected, abs=1e-12)

@@ -58,9 +58,12 @@ def _axis_error(rotation: np.ndarray) -> np.ndarray:
 
 
 def close_loops(
-    mechanism, q: np.ndarray, tol: float = 1e-13, max_iterations: int = 60
+    mechanism, q: np.ndarray, tol: float = 1e-15, max_iterations: int = 60
 ) -> np.ndarray:
     """Solve the passive joints so that every loop closes; returns the closed configuration.
+
+    Iterates until the residual is below ``tol`` times the length scale or stops halving (the
+    round-off floor), so that a closed configuration is exact to round-off.
 
     Raises:
         ModelError: the loops cannot be closed (the Gauss-Newton residual stalls above ``tol``
@@ -72,6 +75,7 @@ def close_loops(
     length = mechanism.length_scale()
     q = np.array(q, dtype=float)
     residual_norm = np.inf
+    stalled = 0
     for _ in range(max_iterations):
         pin.framesForwardKinematics(model, data, q)
         residual, selections = closure_residual(mechanism, data)
@@ -80,8 +84,11 @@ def close_loops(
             if selections
             else np.zeros(0)
         )
-        residual_norm = float(np.max(np.abs(residual * weights), initial=0.0))
-        if residual_norm <= tol * max(length, 1.0) or not passive:
+        previous, residual_norm = residual_norm, float(
+            np.max(np.abs(residual * weights), initial=0.0)
+        )
+        stalled = stalled + 1 if residual_norm > 0.5 * previous else 0
+        if residual_norm <= tol * max(length, 1.0) or not passive or stalled >= 3:
             break
         pin.computeJointJacobians(model, data, q)
         jacobian = []
@@ -119,3 +126,42 @@ def _split(residual: np.ndarray, selections) -> list[np.ndarray]:
 
 def _weights(rows: list[int], length: float) -> np.ndarray:
     return np.array([1.0 if c < ALPHA else length for c in rows])
+
+
+def follow_branch(
+    mechanism, start: np.ndarray, target: np.ndarray, step: float = 0.05
+) -> np.ndarray:
+    """Close the loops at ``target``'s driven values by continuation from the closed ``start``.
+
+    The driven joints move from their values in ``start`` to those in ``target`` in equal steps of
+    at most ``step`` [rad, or that fraction of the length scale for prismatic joints]; each step is
+    closed from the previous one, so the passive joints stay on ``start``'s assembly branch (a
+    direct Gauss-Newton from far away may land on the other branch of a four-bar or a
+    slider-crank).
+    """
+    driven, scales = driven_coordinates(mechanism)
+    if not driven:
+        return close_loops(mechanism, target)
+    span = float(np.max(np.abs(target[driven] - start[driven]) / scales, initial=0.0))
+    count = max(1, int(np.ceil(span / step)))
+    q = start.copy()
+    for k in range(1, count + 1):
+        q = q.copy()
+        q[driven] = start[driven] + (target[driven] - start[driven]) * (k / count)
+        q = close_loops(mechanism, q)
+    return q
+
+
+def driven_coordinates(mechanism) -> tuple[list[int], np.ndarray]:
+    """Configuration indices of the driven joints' values, and their step scales (1 [rad] for
+    revolute joints, the mechanism's length scale [m] for prismatic ones)."""
+    indices, scales = [], []
+    for joint in mechanism.tree_joints:
+        if not joint.driven:
+            continue
+        pin_joint = mechanism.model.joints[joint.joint_id]
+        scale = mechanism.length_scale() if joint.motion_component == 0 else 1.0
+        for index in range(pin_joint.idx_q, pin_joint.idx_q + pin_joint.nq):
+            indices.append(index)
+            scales.append(scale)
+    return indices, np.array(scales)

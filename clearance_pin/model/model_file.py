@@ -104,6 +104,7 @@ def loads(text: str, source: str = "<string>", mesh_dir: Path | None = None):
     mechanism.dimensions = dimensions
     if loop_joints:
         mechanism.q_nominal = mechanism.configure().q  # close the loops now: errors at load time
+        mechanism._nominal_closed = mechanism.q_nominal.copy()
     return mechanism
 
 
