@@ -36,6 +36,7 @@ Source: P. Flores, "A methodology for quantifying the kinematic position errors 
 manufacturing and assembly tolerances", Strojniski vestnik - J. Mech. Eng. (2011).
 """
 
+from .dimensions import Dimension, parse_dimensions
 from .iso286 import (
     GRADES,
     ISO286_RANGES_MM,
@@ -45,7 +46,6 @@ from .iso286 import (
     tolerance_m,
     tolerance_um,
 )
-from .dimensions import Dimension, parse_dimensions
 from .monte_carlo import MonteCarloResult, WorstCase, exact_worst_case, monte_carlo
 from .sensitivity import Sensitivities, sensitivities
 from .statistics import (
@@ -59,7 +59,6 @@ from .statistics import (
     sampling_error_of_3sigma,
     worst_case_band,
 )
-
 from .sweep import Budget, Sweep, clearance_budget, cycle_maximum, plot_sweep, sweep
 
 __all__ = [

@@ -68,7 +68,7 @@ ISO286_RANGES_MM: tuple[tuple[float, float], ...] = (
 )  # fmt: skip
 
 #: Grade names, finest first.
-GRADES: tuple[str, ...] = ("IT01", "IT0") + tuple(f"IT{k}" for k in range(1, 19))
+GRADES: tuple[str, ...] = ("IT01", "IT0", *tuple(f"IT{k}" for k in range(1, 19)))
 
 # Standard tolerance values [um], one column per range of ISO286_RANGES_MM.
 #

@@ -1,0 +1,376 @@
+r"""The exact loop closure for many toleranced samples at once (Flores [F] Monte Carlo).
+
+A Newton method on the same residual as :mod:`clearance_pin.kinematics.closure` (constrained
+components of each loop's relative placement ``cM_b`` in its clearance frame), built generically
+from the ``pin.Model``:
+
+.. math::
+
+    oM_i = oM_{\lambda(i)} \, D(dd) \, {}^{\lambda(i)}M_i \, M_i(q_i^0) \exp(S_i \delta_i), \qquad
+    \delta \leftarrow \delta - (J^T W^2 J)^{-1} J^T W^2 r(\delta)
+
+with ``delta`` the passive joints' increments (started at the linear prediction ``S_q dd``),
+``J`` the exact derivative of the residual, ``W`` = 1 on translation rows and the mechanism's
+length scale on rotation rows. The kinematics is traced once per configuration
+(:mod:`.tape`) and replayed on blocks of samples.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import ClearancePinError, SolverError, UnsupportedError
+from ..model.clearance import ALPHA
+from .dimensions import Dimension, directly_moved
+from .sensitivity import Sensitivities, sensitivities
+from .tape import (
+    _add,
+    _as_array,
+    _compose,
+    _constant_placement,
+    _cross,
+    _Item,
+    _jl_inverse,
+    _log3,
+    _mat_mul,
+    _mat_t_vec,
+    _mat_vec,
+    _mul,
+    _neg,
+    _rotation,
+    _sub,
+    _Tape,
+    _transpose,
+    _vadd,
+    _vsub,
+)
+
+__all__ = ["BatchClosure"]
+
+
+class BatchClosure:
+    """Exact loop closure of one configuration for many dimension deviations at once.
+
+    Build once per configuration, then :meth:`solve` any number of samples.
+
+    Args:
+        mechanism: :class:`~clearance_pin.mechanism.Mechanism`.
+        outputs: :class:`~clearance_pin.tolerance.sensitivity.Output` objects or spec strings.
+        q: configuration (nq,), driven joints at their values (default: nominal); closed first.
+        dimensions: default ``mechanism.dimensions``.
+        tol: closure tolerance on the length-scaled residual [m].
+        max_iterations: Newton iterations per sample.
+    """
+
+    def __init__(
+        self,
+        mechanism,
+        outputs,
+        q: np.ndarray | None = None,
+        dimensions: tuple[Dimension, ...] | None = None,
+        tol: float | None = None,
+        max_iterations: int = 12,
+        linear: Sensitivities | None = None,
+    ):
+        model = mechanism.model
+        self.mechanism = mechanism
+        self.linear = (
+            linear if linear is not None else sensitivities(mechanism, outputs, q, dimensions)
+        )
+        self.outputs = self.linear.outputs
+        self.dimensions = self.linear.dimensions
+        self.q = self.linear.q
+        self.length = mechanism.length_scale()
+        self.tol = 1e-12 * self.length if tol is None else float(tol)
+        self.max_iterations = int(max_iterations)
+        data = model.createData()
+        pin.framesForwardKinematics(model, data, self.q)
+        pin.computeJointJacobians(model, data, self.q)
+
+        moved_joints: dict[int, list] = {}
+        moved_frames: dict[int, list] = {}
+        for k, dim in enumerate(self.dimensions):
+            joints, frames = directly_moved(model, dim)
+            entry = (k, dim.kind, tuple(dim.axis_in_parent_joint), tuple(dim.point_in_parent_joint))
+            for j in joints:
+                moved_joints.setdefault(j, []).append(entry)
+            for f in frames:
+                moved_frames.setdefault(f, []).append(entry)
+
+        self.passive = list(self.linear.passive_indices)
+        column_of_joint = {}
+        for j in range(1, model.njoints):
+            if model.joints[j].nv == 1 and model.joints[j].idx_v in self.passive:
+                column_of_joint[j] = self.passive.index(model.joints[j].idx_v)
+
+        frames = {o.index for o in self.outputs if o.kind != "joint"}
+        for loop in mechanism.loop_joints:
+            frames.update((loop.frame_a, loop.frame_b))
+        needed = set()
+        for f in frames:
+            needed.update(int(j) for j in model.supports[model.frames[f].parentJoint] if j > 0)
+        self.joints: dict[int, tuple] = {}
+        for j in sorted(needed):
+            placement = _constant_placement(model.jointPlacements[j])
+            motion = _constant_placement(model.jointPlacements[j].inverse() * data.liMi[j])
+            spec = None
+            if j in column_of_joint:
+                s = pin.getJointJacobian(model, data, j, pin.LOCAL)[:, model.joints[j].idx_v]
+                if np.allclose(s[:3], 0.0) and abs(np.linalg.norm(s[3:]) - 1) < 1e-12:
+                    spec = (column_of_joint[j], "revolute", tuple(float(v) for v in s[3:]))
+                elif np.allclose(s[3:], 0.0) and abs(np.linalg.norm(s[:3]) - 1) < 1e-12:
+                    spec = (column_of_joint[j], "prismatic", tuple(float(v) for v in s[:3]))
+                else:
+                    raise UnsupportedError(
+                        f"passive joint {model.names[j]!r}: only revolute and "
+                        "prismatic passive joints are supported by the batch "
+                        "closure"
+                    )
+            item = _Item(int(model.parents[j]), placement, tuple(moved_joints.get(j, ())))
+            self.joints[j] = (item, motion, spec)
+        self.frames = {
+            f: _Item(
+                int(model.frames[f].parentJoint),
+                _constant_placement(model.frames[f].placement),
+                tuple(moved_frames.get(f, ())),
+            )
+            for f in frames
+        }
+        self.supports = {
+            f: {int(j) for j in model.supports[model.frames[f].parentJoint]} for f in frames
+        }
+        self.loops = []
+        for loop in mechanism.loop_joints:
+            free = set(loop.clearance.free_components)
+            rows = [c for c in range(6) if c not in free]
+            rotation = _constant_placement(pin.SE3(loop.rotation, np.zeros(3)))[0]
+            self.loops.append((loop.frame_a, loop.frame_b, rows, ALPHA in free, rotation))
+        # nominal frame rotations (orientation outputs are rotation vectors of R R_0^T)
+        self._frame_reference = {f: _transpose(_constant_placement(data.oMf[f])[0]) for f in frames}
+        self._trace()
+        # the nominal outputs of the batch kinematics itself (its round-off cancels)
+        self._reference = np.zeros(len(self.outputs))
+        self._reference = self.solve(np.zeros((1, len(self.dimensions))))[0]
+
+    def _trace(self) -> None:
+        """Trace the kinematics once with symbolic entries; compile the two programs.
+
+        ``_evaluate``: (dd, delta) -> residual rows, outputs; ``_step``: (dd, delta) ->
+        residual rows, delta + Newton increment."""
+        tape = _Tape()
+        dd = tape.variables(len(self.dimensions))
+        delta = tape.variables(len(self.passive))
+        oMi, oMf = self._forward(dd, delta)
+        values, states = self._residual(oMf)
+        self._rows = len(values)
+        self._evaluate = tape.compile(dd + delta, values + self._outputs(oMf, delta))
+        self._step = None
+        if self.passive and self.loops:
+            increment = _newton_step(self._jacobian(oMi, states), values, len(self.passive))
+            self._step = tape.compile(
+                dd + delta, values + [_add(d, x) for d, x in zip(delta, increment)]
+            )
+
+    # -- kinematics ---------------------------------------------------------------------
+    @staticmethod
+    def _moved(item: _Item, dd: list):
+        rotation, translation = item.placement
+        for k, kind, axis, point in item.dims:
+            if kind == "length":
+                translation = _vadd(translation, tuple(_mul(a, dd[k]) for a in axis))
+            else:
+                e = _rotation(axis, np.cos(dd[k]), np.sin(dd[k]))
+                rotation = _mat_mul(e, rotation)
+                translation = _vadd(_mat_vec(e, _vsub(translation, point)), point)
+        return rotation, translation
+
+    def _forward(self, dd: list, delta: list):
+        """World placements of the needed joints and frames, for deviations ``dd`` and passive
+        increments ``delta`` (entries, one per dimension / passive joint)."""
+        identity = ((1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0))
+        oMi = {0: identity}
+        for j, (item, motion, spec) in self.joints.items():
+            placement = _compose(_compose(oMi[item.parent], self._moved(item, dd)), motion)
+            if spec is not None:
+                column, kind, axis = spec
+                d = delta[column]
+                if kind == "revolute":
+                    placement = _compose(
+                        placement, (_rotation(axis, np.cos(d), np.sin(d)), (0.0, 0.0, 0.0))
+                    )
+                else:
+                    placement = _compose(placement, (identity[0], tuple(_mul(a, d) for a in axis)))
+            oMi[j] = placement
+        oMf = {
+            f: _compose(oMi[item.parent], self._moved(item, dd)) for f, item in self.frames.items()
+        }
+        return oMi, oMf
+
+    def _columns(self, oMi):
+        """World axis and origin of every passive joint: (column, kind, w, p)."""
+        columns = []
+        for j, (_, _, spec) in self.joints.items():
+            if spec is not None:
+                column, kind, axis = spec
+                columns.append((j, column, kind, _mat_vec(oMi[j][0], axis), oMi[j][1]))
+        return columns
+
+    def _residual(self, oMf):
+        """Weighted residual rows of every loop, and the loop geometry for :meth:`_jacobian`."""
+        values, states = [], []
+        for frame_a, frame_b, rows, axis_mode, rotation in self.loops:
+            ra, pc = oMf[frame_a]
+            rb, pb = oMf[frame_b]
+            rc = _mat_mul(ra, rotation)
+            rel_r = _mat_mul(_transpose(rc), _mat_mul(rb, rotation))
+            rel_t = _mat_t_vec(rc, _vsub(pb, pc))
+            if axis_mode:  # as closure.py: only the axis must line up, the spin is free
+                m = (rel_r[0], rel_r[3], rel_r[6])
+                rot, theta = (0.0, _neg(np.arctan2(m[2], m[0])), np.arctan2(m[1], m[0])), m
+            else:
+                rot, theta = _log3(rel_r)
+            error = (*rel_t, *rot)
+            weights = [1.0 if c < ALPHA else self.length for c in rows]
+            values.extend(_mul(error[c], w) for c, w in zip(rows, weights))
+            states.append((frame_a, frame_b, rows, axis_mode, weights, rc, pc, pb, rot, theta))
+        return values, states
+
+    def _jacobian(self, oMi, states):
+        r"""Exact derivatives of the residual rows by the passive increments, row by row.
+
+        For a passive joint with world axis ``w`` through ``p``: point velocity
+        ``w x (x - p)`` (revolute) or ``w`` (prismatic); then
+        ``d t_rel = R_c^T (v_b - v_c - omega_a x (p_b - p_c))``, ``w_rel = R_c^T (omega_b -
+        omega_a)`` and ``d log(R_rel) = J_l^{-1} w_rel`` (or the derivative of the axis angles).
+        """
+        zero = (0.0, 0.0, 0.0)
+        columns = self._columns(oMi)
+        derivatives = []
+        for frame_a, frame_b, rows, axis_mode, weights, rc, pc, pb, rot, theta in states:
+            per_column = {}
+            for j, column, kind, w, p in columns:
+                in_a, in_b = j in self.supports[frame_a], j in self.supports[frame_b]
+                if not (in_a or in_b):
+                    continue
+                if kind == "revolute":
+                    vb = _cross(w, _vsub(pb, p)) if in_b else zero
+                    vc = _cross(w, _vsub(pc, p)) if in_a else zero
+                    wa, wb = (w if in_a else zero), (w if in_b else zero)
+                else:
+                    vb, vc, wa, wb = (w if in_b else zero), (w if in_a else zero), zero, zero
+                dt = _mat_t_vec(rc, _vsub(_vsub(vb, vc), _cross(wa, _vsub(pb, pc))))
+                wr = _mat_t_vec(rc, _vsub(wb, wa))
+                if axis_mode:
+                    m = theta
+                    dm = _cross(wr, m)
+                    d1 = _neg(
+                        _sub(_mul(m[0], dm[2]), _mul(m[2], dm[0])) / (m[0] * m[0] + m[2] * m[2])
+                    )
+                    d2 = _sub(_mul(m[0], dm[1]), _mul(m[1], dm[0])) / (m[0] * m[0] + m[1] * m[1])
+                    drot = (0.0, d1, d2)
+                else:
+                    drot = _jl_inverse(rot, theta, wr)
+                derror = (*dt, *drot)
+                per_column[column] = [_mul(derror[c], w) for c, w in zip(rows, weights)]
+            for r in range(len(rows)):
+                derivatives.append(
+                    [per_column[c][r] if c in per_column else 0.0 for c in range(len(self.passive))]
+                )
+        return derivatives
+
+    def _outputs(self, oMf, delta: list) -> list:
+        values = []
+        for output in self.outputs:
+            if output.kind == "joint":
+                idx_v = self.mechanism.model.joints[output.index].idx_v
+                values.append(delta[self.passive.index(idx_v)] if idx_v in self.passive else 0.0)
+            elif output.kind == "position":
+                values.append(oMf[output.index][1][output.component])
+            else:  # world rotation vector of R R_0^T, R_0 the nominal rotation
+                rotation = _mat_mul(oMf[output.index][0], self._frame_reference[output.index])
+                values.append(_log3(rotation)[0][output.component])
+        return values
+
+    def _close(self, dd: np.ndarray) -> np.ndarray:
+        """Newton on the passive increments, then the outputs (n, n_out), not yet referenced."""
+        n, rows = dd.shape[0], self._rows
+        columns = [np.ascontiguousarray(dd[:, k]) for k in range(dd.shape[1])]
+        delta = dd @ self.linear.passive.T if self.passive else np.zeros((n, 0))
+        delta = [np.ascontiguousarray(delta[:, k]) for k in range(delta.shape[1])]
+        iterations = 0
+        while True:
+            if self._step is not None:
+                delta = [_as_array(d, n) for d in self._step.run(columns + delta)[rows:]]
+                iterations += 1
+            result = self._evaluate.run(columns + delta)
+            largest = max((float(np.max(np.abs(v))) for v in result[:rows]), default=0.0)
+            if largest <= self.tol:
+                return (
+                    np.column_stack([_as_array(v, n) for v in result[rows:]])
+                    if len(result) > rows
+                    else np.zeros((n, 0))
+                )
+            if iterations >= self.max_iterations or not np.isfinite(largest):
+                raise SolverError(
+                    "the exact loop closure did not converge for some samples "
+                    "(tolerances too large for this configuration?)",
+                    "max_iter",
+                    {"closure_residual_m": largest},
+                )
+
+    def solve(self, deviations: np.ndarray, chunk: int = 1 << 14) -> np.ndarray:
+        """Exact output deviations for dimension deviations, shape (N, n_out) [m or rad].
+
+        Args:
+            deviations: ``dd`` [m or rad], shape (N, n_dim).
+            chunk: samples per vectorised block (memory / cache trade-off).
+
+        Raises:
+            SolverError: the Newton closure did not converge (deviations too large).
+        """
+        dd = np.asarray(deviations, dtype=float)
+        if dd.ndim != 2 or dd.shape[1] != len(self.dimensions):
+            raise ClearancePinError(
+                f"deviations must have shape (N, {len(self.dimensions)}), got {dd.shape}"
+            )
+        out = np.empty((dd.shape[0], len(self.outputs)))
+        for start in range(0, dd.shape[0], chunk):
+            out[start : start + chunk] = self._close(dd[start : start + chunk]) - self._reference
+        return out
+
+
+def _newton_step(derivatives, values, n_passive: int) -> list:
+    """Gauss-Newton increment ``-(J^T J)^{-1} J^T r`` per sample (entries), by Cholesky."""
+    a = [[0.0] * n_passive for _ in range(n_passive)]
+    g = [0.0] * n_passive
+    for row, value in zip(derivatives, values):
+        for i in range(n_passive):
+            if isinstance(row[i], float) and row[i] == 0.0:
+                continue
+            g[i] = _add(g[i], _mul(row[i], value))
+            for j in range(i + 1):
+                a[i][j] = _add(a[i][j], _mul(row[i], row[j]))
+    lower = [[0.0] * n_passive for _ in range(n_passive)]
+    for i in range(n_passive):
+        for j in range(i + 1):
+            s = a[i][j]
+            for k in range(j):
+                s = _sub(s, _mul(lower[i][k], lower[j][k]))
+            if i == j:
+                lower[i][i] = np.sqrt(np.maximum(s, 1e-300))
+            else:
+                lower[i][j] = s / lower[j][j]
+    y = [0.0] * n_passive
+    for i in range(n_passive):
+        s = _neg(g[i])
+        for k in range(i):
+            s = _sub(s, _mul(lower[i][k], y[k]))
+        y[i] = s / lower[i][i]
+    x = [0.0] * n_passive
+    for i in reversed(range(n_passive)):
+        s = y[i]
+        for k in range(i + 1, n_passive):
+            s = _sub(s, _mul(lower[k][i], x[k]))
+        x[i] = s / lower[i][i]
+    return x
