@@ -159,7 +159,7 @@ def active_set_solve(
     y,
     multipliers,
     signs=None,
-    rounds: int = 8,
+    rounds: int = 10,
     accept: float = ACCEPT_KKT,
 ):
     """Verified active-set method from a guess (y, multipliers); None if it cannot be verified.
@@ -183,6 +183,10 @@ def active_set_solve(
             return None
         solved = newton(stack, objective, y, lam, signs, active, accept=accept)
         if solved is None:
+            released = _contact_to_release(stack, objective, y, signs, active)
+            if released is not None:
+                active = np.setdiff1d(active, [released])
+                continue
             stepped = _step_to_next_contact(stack, objective, y, signs, active)
             if stepped is None:
                 return None
@@ -208,6 +212,19 @@ def active_set_solve(
             return y_new, lam_new, signs, measured
         return None
     return None
+
+
+def _contact_to_release(stack, objective, y, signs, active):
+    """When Newton fails on an over-constrained set: the contact whose least-squares multiplier is
+    most negative (it pulls), else the most open one if it is not quite touching; None if none."""
+    if active.size <= 1:
+        return None
+    values, gradients = stack.evaluate(y, signs)
+    least = np.linalg.lstsq(gradients[active].T, -objective, rcond=None)[0]
+    if least.min() < -1e-12:
+        return int(active[np.argmin(least)])
+    most_open = int(active[np.argmin(values[active])])
+    return most_open if values[most_open] < -1e-14 else None
 
 
 def _minimum_norm_forces(stack, objective, y, signs, active, newton_multipliers):
