@@ -30,6 +30,11 @@ from .reduction import ReducedProblem
 
 BACKENDS = ("auto", "clarabel", "ipopt")
 NEARLY_TOUCHING = 1e-3
+# a warm start is a cheap bet: a couple of Newton rounds from the previous contact set, then the
+# backend (on long chains a persistent warm search costs more than a cold solve)
+WARM_ROUNDS = 2
+WARM_MAX_SIZE = 48  # dense Newton steps cost O(size^3): larger problems go to the sparse backend
+WARM_ITERATIONS = 6
 
 
 @dataclass
@@ -207,9 +212,10 @@ def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = Non
     stack = problem.stack
     # round-off in the KKT residual grows as 1 / conditioning (a ConditioningWarning says so)
     accept = max(ACCEPT_KKT, 1e-16 / max(problem.conditioning, 1e-300))
-    if warm is not None and warm.y.shape == (problem.size,):
+    if warm is not None and warm.y.shape == (problem.size,) and problem.size <= WARM_MAX_SIZE:
         verified = active_set_solve(
-            stack, problem.objective, warm.y, warm.multipliers, warm.signs, accept=accept
+            stack, problem.objective, warm.y, warm.multipliers, warm.signs, accept=accept,
+            rounds=WARM_ROUNDS, iterations=WARM_ITERATIONS,
         )
         if verified is not None:
             y, lam, signs, measured = verified

@@ -161,6 +161,7 @@ def active_set_solve(
     signs=None,
     rounds: int = 10,
     accept: float = ACCEPT_KKT,
+    iterations: int = 12,
 ):
     """Verified active-set method from a guess (y, multipliers); None if it cannot be verified.
 
@@ -181,7 +182,8 @@ def active_set_solve(
     for _ in range(rounds):
         if active.size == 0:
             return None
-        solved = newton(stack, objective, y, lam, signs, active, accept=accept)
+        solved = newton(stack, objective, y, lam, signs, active, iterations=iterations,
+                        accept=accept)
         if solved is None:
             released = _contact_to_release(stack, objective, y, signs, active)
             if released is not None:
