@@ -14,8 +14,9 @@ $(BIN)/clearance-pin: pyproject.toml
 demo: $(BIN)/clearance-pin
 	$(BIN)/clearance-pin solve models/younes_sphere_cylinder.urdf --exact
 
+# one BLAS thread: the solver's matrices are small, and threads fight on a busy machine
 test: $(BIN)/clearance-pin
-	$(BIN)/python -m pytest
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m pytest
 
 validate: $(BIN)/clearance-pin
 	$(BIN)/python validation/younes2013.py --json out/younes2013.json

@@ -42,8 +42,10 @@ def _solve(args: argparse.Namespace) -> int:
             print()
             print(report.table())
             if not report.ok and equilibrium.formulation == "linear":
-                print("(the small-displacement model's own second-order error shows here; "
-                      "solve with --exact for a pose that sits on the real boundaries)")
+                print(
+                    "(the small-displacement model's own second-order error shows here; "
+                    "solve with --exact for a pose that sits on the real boundaries)"
+                )
     return 0 if equilibrium.ok and (report is None or report.ok) else 1
 
 

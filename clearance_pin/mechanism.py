@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from .errors import ClearancePinError, LoadError, ModelError
+from .errors import ClearancePinError, LoadError, ModelError, SolverError
 from .model.joints import LoopJoint, TreeJoint
 from .model.loads import Gravity, Load, PointForce, Torque
 
@@ -195,12 +195,25 @@ class Mechanism:
         Returns:
             :class:`~clearance_pin.equilibrium.result.Equilibrium`.
         """
-        from .equilibrium.solve import solve_exact, solve_linear
 
         if exact not in (True, False, "auto"):
             raise ClearancePinError(f"exact must be True, False or 'auto', got {exact!r}")
         gravity_load = False if gravity is False else gravity
         resolved = self.resolve_loads(loads, gravity_load)
+        try:
+            return self._solve(resolved, exact, q, tol, backend, accuracy, warm_start)
+        except (np.linalg.LinAlgError, OverflowError, FloatingPointError, ValueError) as exc:
+            if isinstance(exc, ClearancePinError):
+                raise
+            raise SolverError(
+                f"numerical failure in {self.name!r} ({type(exc).__name__}: {exc}); check the "
+                "model's sizes and clearances for extreme values",
+                "numerical error",
+            ) from None
+
+    def _solve(self, resolved, exact, q, tol, backend, accuracy, warm_start):
+        from .equilibrium.solve import solve_exact, solve_linear
+
         linear = solve_linear(self, resolved, q, tol, backend, warm_start)
         if exact == "auto":
             from .equilibrium.second_order import linear_model_error

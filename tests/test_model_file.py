@@ -475,7 +475,8 @@ def test_nothing_but_model_error_escapes_the_reader():
             pass
         except Exception as exc:  # pragma: no cover
             pytest.fail(f"{label}: solve: {type(exc).__name__}: {exc}")
-    assert outcomes["ModelError"] > 200 and outcomes["loaded"] > 50, outcomes
+    # both outcomes occur (the reader also checks inertials and URDF structure, so fewer load)
+    assert outcomes["ModelError"] > 200 and outcomes["loaded"] > 25, outcomes
 
 
 @pytest.mark.parametrize("path", MODEL_FILES, ids=lambda p: p.stem)

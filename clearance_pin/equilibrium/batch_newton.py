@@ -54,7 +54,7 @@ def batched_newton(
         full = np.zeros((count_cases, stack.count))
         full[:, active] = lam
         lam_rows = 2.0 * full[:, stack.row_contact] * row_weights
-        kkt[:, :size, :size] = np.einsum("nk,ki,kj->nij", lam_rows, matrix, matrix)
+        kkt[:, :size, :size] = np.matmul(matrix.T[None] * lam_rows[:, None, :], matrix)
         kkt[:, :size, size:] = np.transpose(gradients, (0, 2, 1))
         kkt[:, size:, :size] = gradients
         try:

@@ -214,8 +214,14 @@ def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = Non
     accept = max(ACCEPT_KKT, 1e-16 / max(problem.conditioning, 1e-300))
     if warm is not None and warm.y.shape == (problem.size,) and problem.size <= WARM_MAX_SIZE:
         verified = active_set_solve(
-            stack, problem.objective, warm.y, warm.multipliers, warm.signs, accept=accept,
-            rounds=WARM_ROUNDS, iterations=WARM_ITERATIONS,
+            stack,
+            problem.objective,
+            warm.y,
+            warm.multipliers,
+            warm.signs,
+            accept=accept,
+            rounds=WARM_ROUNDS,
+            iterations=WARM_ITERATIONS,
         )
         if verified is not None:
             y, lam, signs, measured = verified

@@ -182,8 +182,9 @@ def active_set_solve(
     for _ in range(rounds):
         if active.size == 0:
             return None
-        solved = newton(stack, objective, y, lam, signs, active, iterations=iterations,
-                        accept=accept)
+        solved = newton(
+            stack, objective, y, lam, signs, active, iterations=iterations, accept=accept
+        )
         if solved is None:
             released = _contact_to_release(stack, objective, y, signs, active)
             if released is not None:

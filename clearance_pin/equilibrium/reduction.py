@@ -29,6 +29,7 @@ from .kkt import StackedContacts
 from .small_displacement import SmallDisplacementMaps, null_space
 
 UNBOUNDED_FRACTION = 1e-9
+ROUND_OFF_WORK = 1e-12  # working part of a load below this share of the load is round-off
 RANK_ATOL = 1e-9  # on rows normalised to their natural size (closure rows, contact rows / play)
 
 
@@ -150,7 +151,7 @@ def reduce_geometry(
     n = maps.size
     contacts, equality_rows, equality_joints = _constraints(maps, joints)
     scale = _variable_scales(maps, joints, contacts, length_scale)
-    equalities = np.array(equality_rows).reshape(-1, n)
+    equalities = np.array(equality_rows, dtype=float).reshape(len(equality_rows), n)
     normalised = _normalised_equalities(maps, equalities, equality_joints, scale)
     closure_basis = null_space(normalised, atol=RANK_ATOL) if equalities.size else np.eye(n)
     conditioning = closure_conditioning(normalised)
@@ -190,24 +191,34 @@ def with_load(
     maps: SmallDisplacementMaps,
     joints: dict,
     length_scale: float,
+    load_size: float = 0.0,
 ) -> ReducedProblem:
     """The reduced problem for one load: objective f and the check for unbounded loads.
 
+    Args:
+        load_size: size of the whole load on the clearance scale [J] (forces x play, moments x
+            play / length), the reference for the unbounded test; 0 uses the working part only.
+
     Raises:
-        UnboundedLoadError: the load works along a motion that nothing blocks.
+        UnboundedLoadError: the load works along a motion that nothing blocks (more than 1e-9 of
+            the load).
     """
     scale = geometry.scale
     scaled_gradient = scale * gradient
-    reference = float(np.linalg.norm(scaled_gradient))
+    # compare with the whole load (load_size), not only its working part: a load through a
+    # pivot leaves a round-off moment that is all "working part" but nothing of the load
+    reference = max(float(np.linalg.norm(scaled_gradient)), load_size)
     along_free = geometry.free_scaled.T @ scaled_gradient
     if reference > 0.0 and np.linalg.norm(along_free) > UNBOUNDED_FRACTION * reference:
         motion = scale * (geometry.free_scaled @ along_free)
         raise UnboundedLoadError(
             describe_motion(maps, joints, motion, length_scale),
-            float(np.linalg.norm(along_free) / reference),
+            min(1.0, float(np.linalg.norm(along_free) / np.linalg.norm(scaled_gradient))),
         )
     reduced_gradient = geometry.basis.T @ scaled_gradient
     sigma = float(np.linalg.norm(reduced_gradient))
+    if sigma <= ROUND_OFF_WORK * reference:
+        reduced_gradient, sigma = np.zeros_like(reduced_gradient), 0.0  # round-off: no working load
     objective = reduced_gradient / sigma if sigma > 0.0 else reduced_gradient
     return ReducedProblem(
         gradient,

@@ -23,6 +23,7 @@ from .small_displacement import SmallDisplacementMaps, build_maps, null_space
 
 ACTIVE_RELATIVE_GAP = 1e-7
 CONDITIONING_WARNING = 1e-6
+FINITE_ROTATION = 1e-2  # [rad] a linear answer turning a joint more than this is not small
 
 
 def linear_setup(mechanism, loads, q):
@@ -48,8 +49,26 @@ def linear_setup(mechanism, loads, q):
     pin.framesForwardKinematics(mechanism.model, mechanism.data, configuration.q)
     body_loads = gather_body_loads(mechanism.model, mechanism.data, loads, mechanism.link_frames)
     gradient = load_gradient(body_loads, maps.body_twist)
-    problem = with_load(geometry, gradient, maps, mechanism.joints, mechanism.length_scale())
+    problem = with_load(
+        geometry,
+        gradient,
+        maps,
+        mechanism.joints,
+        mechanism.length_scale(),
+        load_size(body_loads, geometry.scale, mechanism.length_scale()),
+    )
     return configuration, maps, body_loads, problem
+
+
+def load_size(body_loads, scale, length: float) -> float:
+    """The whole load on the clearance scale [J]: sum of |F| c + |M| c / L over the bodies, with
+    c the median variable scale, M the moment at the world origin and L the length scale."""
+    play = float(np.median(scale)) if scale.size else 0.0
+    return sum(
+        float(np.linalg.norm(b.wrench[:3])) * play
+        + float(np.linalg.norm(b.wrench[3:])) * play / max(length, 1e-300)
+        for b in body_loads.values()
+    )
 
 
 def solve_linear(
@@ -118,6 +137,18 @@ def solve_linear(
                 )
             )
             for i in range(flat.shape[1])
+        )
+    largest_rotation = max(
+        (float(np.linalg.norm(t[3:])) for t in equilibrium.torsors.values()), default=0.0
+    )
+    if largest_rotation > FINITE_ROTATION:
+        warnings.warn(
+            ConditioningWarning(
+                f"{mechanism.name}: the small-displacement answer turns a joint by "
+                f"{largest_rotation:.2g} rad, beyond the model's validity (rotations << 1): "
+                "the mechanism is near a toggle position; solve with exact=True"
+            ),
+            stacklevel=3,
         )
     if problem.conditioning < CONDITIONING_WARNING:
         warnings.warn(

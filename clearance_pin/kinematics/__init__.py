@@ -22,13 +22,40 @@ Shared math and conventions (all Pinocchio's):
 import importlib
 
 _LAZY = {
-    **{name: "casadi_kinematics" for name in (
-        "SUPPORTED_JOINTS", "CasadiKinematics", "JointSpec", "casadi_function",
-        "joint_integrate", "joint_transform", "stack_placements")},
-    **{name: "lie_casadi" for name in (
-        "Placement", "act", "as_placement", "as_sx", "axis_angle_rotation", "compose",
-        "identity", "inverse", "quat_exp3", "quat_multiply", "quat_to_rotation",
-        "rotation_vee_antisym", "se2_exp", "se3_exp", "skew", "so3_exp", "vee")},
+    **{
+        name: "casadi_kinematics"
+        for name in (
+            "SUPPORTED_JOINTS",
+            "CasadiKinematics",
+            "JointSpec",
+            "casadi_function",
+            "joint_integrate",
+            "joint_transform",
+            "stack_placements",
+        )
+    },
+    **{
+        name: "lie_casadi"
+        for name in (
+            "Placement",
+            "act",
+            "as_placement",
+            "as_sx",
+            "axis_angle_rotation",
+            "compose",
+            "identity",
+            "inverse",
+            "quat_exp3",
+            "quat_multiply",
+            "quat_to_rotation",
+            "rotation_vee_antisym",
+            "se2_exp",
+            "se3_exp",
+            "skew",
+            "so3_exp",
+            "vee",
+        )
+    },
 }
 
 

@@ -84,8 +84,9 @@ def close_loops(
             if selections
             else np.zeros(0)
         )
-        previous, residual_norm = residual_norm, float(
-            np.max(np.abs(residual * weights), initial=0.0)
+        previous, residual_norm = (
+            residual_norm,
+            float(np.max(np.abs(residual * weights), initial=0.0)),
         )
         stalled = stalled + 1 if residual_norm > 0.5 * previous else 0
         if residual_norm <= tol * max(length, 1.0) or not passive or stalled >= 3:

@@ -78,11 +78,18 @@ def rotation_x_to(axis: np.ndarray) -> np.ndarray:
     """
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
-    x = np.array([1.0, 0.0, 0.0])
-    c = float(x @ a)
-    if c < -1.0 + 1e-12:
-        return np.diag([-1.0, -1.0, 1.0])
-    k = np.cross(x, a)
+    if a[0] < 0.0:
+        # near -x the formula below loses accuracy as 1 / (1 + c): turn half a revolution about
+        # z first, then take the small rotation from x to the turned axis
+        half_turn = np.diag([-1.0, -1.0, 1.0])
+        return half_turn @ _small_rotation_x_to(half_turn @ a)
+    return _small_rotation_x_to(a)
+
+
+def _small_rotation_x_to(a: np.ndarray) -> np.ndarray:
+    """Rodrigues rotation taking x onto the unit vector ``a`` with a[0] >= 0 (well conditioned)."""
+    c = float(a[0])
+    k = np.array([0.0, -a[2], a[1]])  # x cross a
     kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
     return np.eye(3) + kx + kx @ kx / (1.0 + c)
 

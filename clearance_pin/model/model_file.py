@@ -151,6 +151,7 @@ class _Reader:
             if name in links:
                 raise ModelError(self.source, f"<link name='{name}'>", "duplicate link name")
             links.add(name)
+            self._check_inertial(name, element.find("inertial"))
         for name, element in self.urdf_joints.items():
             label = f"<joint name='{name}'>"
             kind = element.get("type")
@@ -179,6 +180,26 @@ class _Reader:
                     _vector(self.source, axis, "xyz", label=label)
                 except ModelError as exc:
                     raise ModelError(self.source, label, f"<axis> {exc.problem}") from None
+
+    def _check_inertial(self, link: str, inertial) -> None:
+        """Numbers of a link's <inertial>, which urdfdom drops with only a message on stderr."""
+        if inertial is None:
+            return
+        label = f"<link name='{link}'> <inertial>"
+        mass = inertial.find("mass")
+        if mass is not None:
+            value = _number(self.source, mass, "value", nonnegative=True, label=label)
+            if value < 0.0:
+                raise ModelError(self.source, label, "mass must be >= 0 [kg]")
+        inertia = inertial.find("inertia")
+        if inertia is not None:
+            for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
+                if inertia.get(key) is not None:
+                    _number(self.source, inertia, key, label=label)
+        origin = inertial.find("origin")
+        for attribute in ("xyz", "rpy"):
+            if origin is not None and origin.get(attribute) is not None:
+                _vector(self.source, origin, attribute, allow_zero=True, label=label)
 
     def pin_model(self) -> pin.Model:
         try:
@@ -421,16 +442,23 @@ def _check_attributes(source: str, element: ET.Element, allowed: set[str]) -> No
         )
 
 
-def _number(source: str, element: ET.Element, attribute: str, nonnegative: bool = False) -> float:
+def _number(
+    source: str,
+    element: ET.Element,
+    attribute: str,
+    nonnegative: bool = False,
+    label: str | None = None,
+) -> float:
+    label = label or _label(element)
     text = element.get(attribute)
     try:
         value = float(text)
     except (TypeError, ValueError):
-        raise ModelError(source, _label(element), f"{attribute}={text!r} is not a number") from None
+        raise ModelError(source, label, f"{attribute}={text!r} is not a number") from None
     if not math.isfinite(value):
-        raise ModelError(source, _label(element), f"{attribute}={text!r} must be finite")
+        raise ModelError(source, label, f"{attribute}={text!r} must be finite")
     if nonnegative and value < 0.0:
-        raise ModelError(source, _label(element), f"{attribute}={text!r} must be >= 0 [m]")
+        raise ModelError(source, label, f"{attribute}={text!r} must be >= 0")
     return value
 
 
@@ -471,10 +499,16 @@ def _boolean(source: str, element, attribute: str, default: bool) -> bool:
 
 
 def _pin_axis(pin_joint) -> np.ndarray:
-    shortname = pin_joint.shortname()
-    if shortname[-1] in "XYZ" and "Unaligned" not in shortname:
-        return np.eye(3)["XYZ".index(shortname[-1])]
-    return np.array(pin_joint.extract().axis, dtype=float)
+    """Unit axis of a 1-DOF Pinocchio joint, in its joint frame, from its motion subspace
+    (works for every revolute and prismatic variant, unaligned and unbounded ones included)."""
+    data = pin_joint.createData()
+    neutral = np.zeros(pin_joint.nq)
+    if pin_joint.nq == 2:  # unbounded revolute: (cos, sin)
+        neutral[0] = 1.0
+    pin_joint.calc(data, neutral)
+    subspace = np.asarray(data.S).reshape(6, -1)[:, 0]
+    axis = subspace[3:] if np.linalg.norm(subspace[3:]) > 0.5 else subspace[:3]
+    return axis / np.linalg.norm(axis)
 
 
 def _set_nominal(source, label, model, joint_id, q, value: float) -> None:
