@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+import subprocess
 import sys
 from pathlib import Path
 
@@ -17,6 +18,13 @@ BENCHMARKS = ROOT / "benchmarks"
 pytest.importorskip("clarabel")
 pytest.importorskip("cvxpy")
 pytest.importorskip("scipy")
+
+
+def _run_script(script, arguments: list[str]) -> int:
+    """Run benchmarks/<script>.py with ``arguments`` in a fresh interpreter; its exit code."""
+    name = script.__file__ if hasattr(script, "__file__") else str(script)
+    completed = subprocess.run([sys.executable, name, *arguments], check=False, timeout=600)
+    return completed.returncode
 
 
 def _module(name: str):
@@ -35,7 +43,8 @@ def test_work_precision_json_shape(tmp_path):
     a finite error and its peer flag under cases/<id>/<method>; the ratio table has every pair."""
     work_precision = _module("work_precision")
     out = tmp_path / "wp.json"
-    code = work_precision.main(
+    code = _run_script(  # in its own process: the benchmarks set process-wide state
+        work_precision,
         [
             "--quick",
             "--cases",
@@ -48,7 +57,7 @@ def test_work_precision_json_shape(tmp_path):
             str(out),
             "--plots",
             str(tmp_path),
-        ]
+        ],
     )
     assert code == 0
     document = json.loads(out.read_text())
@@ -73,7 +82,8 @@ def test_scaling_json_shape(tmp_path):
     """Two sizes of two generated families: times, memory and a fitted exponent per family."""
     scaling = _module("scaling")
     out = tmp_path / "scaling.json"
-    code = scaling.main(
+    code = _run_script(
+        scaling,
         [
             "--quick",
             "--sizes",
@@ -87,7 +97,7 @@ def test_scaling_json_shape(tmp_path):
             "--json",
             str(out),
             "--no-plots",
-        ]
+        ],
     )
     assert code == 0
     document = json.loads(out.read_text())
