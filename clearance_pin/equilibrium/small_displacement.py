@@ -49,22 +49,19 @@ class SmallDisplacementMaps:
         return len(self.variable_joint)
 
 
-_BASES: dict[int, tuple[TreeJoint, np.ndarray]] = {}
-
-
 def tree_joint_basis(joint: TreeJoint) -> np.ndarray:
-    """Basis (6, n_k) of the torsor components of a tree joint that may move (memoised).
+    """Basis (6, n_k) of the torsor components of a tree joint that may move (memoised on the
+    joint, which is immutable).
 
     Components are removed when rigid, locked by the drive, or held by a contact point with zero
     clearance (the rows of that contact point vanish on the basis).
     """
-    cached = _BASES.get(id(joint))
-    if cached is not None and cached[0] is joint:
-        return cached[1]
-    basis = _basis(joint)
-    basis.setflags(write=False)
-    _BASES[id(joint)] = (joint, basis)
-    return basis
+    cached = joint.__dict__.get("_basis")
+    if cached is None:
+        cached = _basis(joint)
+        cached.setflags(write=False)
+        object.__setattr__(joint, "_basis", cached)  # frozen dataclass: a derived, private cache
+    return cached
 
 
 def _basis(joint: TreeJoint) -> np.ndarray:
