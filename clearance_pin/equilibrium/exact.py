@@ -138,15 +138,18 @@ class ExactProblem:
         ]
         self.evaluate = ca.Function("exact_pose", [z, parameters], outputs)
         jacobian_g = ca.jacobian(constraints, z)
-        self.derivatives = ca.Function(
-            "exact_kkt", [z, parameters], [ca.gradient(energy, z), jacobian_g, energy]
-        )
         multipliers = ca.SX.sym("lam", constraints.shape[0])
         lagrangian = energy / sigma + ca.dot(multipliers, constraints)
         self.kkt_parts = ca.Function(
             "exact_kkt_parts",
             [z, parameters, multipliers],
-            [ca.gradient(energy / sigma, z), constraints, jacobian_g, ca.hessian(lagrangian, z)[0]],
+            [
+                ca.gradient(energy / sigma, z),
+                constraints,
+                jacobian_g,
+                ca.hessian(lagrangian, z)[0],
+                energy,
+            ],
         )
         self.closure = ca.Function(
             "exact_closure",
@@ -282,7 +285,7 @@ def polish_exact(exact: ExactProblem, z, lam, params, iterations: int = 12):
     """
     n_in = len(exact.shapes)
     lower, upper = exact.lower, exact.upper
-    _, g, _, _ = (np.asarray(v) for v in exact.kkt_parts(z, params, lam))
+    _, g, _, _, _ = (np.asarray(v) for v in exact.kkt_parts(z, params, lam))
     g = g.ravel()
     largest = max(1.0, float(np.max(np.abs(lam[:n_in]), initial=0.0)))
     at_upper = (np.abs(g[:n_in] - upper[:n_in]) < 1e-6) | (lam[:n_in] > 1e-9 * largest)
@@ -295,7 +298,7 @@ def polish_exact(exact: ExactProblem, z, lam, params, iterations: int = 12):
     z, lam = z.copy(), lam.copy()
     n = z.size
     for _ in range(iterations):
-        gradient, g, jacobian, hessian = (np.asarray(v) for v in exact.kkt_parts(z, params, lam))
+        gradient, g, jacobian, hessian, _ = (np.asarray(v) for v in exact.kkt_parts(z, params, lam))
         g = g.ravel()
         j_active = jacobian[active]
         residual = np.concatenate(
@@ -370,15 +373,17 @@ def _assemble(
         force[list(point.components)] = local
         active = gap <= 1e-7 * point.bound or (polished_multipliers and lam[j] != 0.0)
         contacts.append(Contact(name, point.name, gap, point.bound, force, bool(active)))
-    gradient, jacobian, energy = (np.asarray(v) for v in exact.derivatives(z, params))
-    gradient = gradient.ravel()
+    scaled_gradient, _, jacobian, _, energy = (
+        np.asarray(v) for v in exact.kkt_parts(z, params, lam)
+    )
+    scaled_gradient = scaled_gradient.ravel()
     inequality_jacobian = jacobian[:n_inequality]
     equality_jacobian = jacobian[n_inequality:]
-    residual = gradient / sigma + inequality_jacobian.T @ lam[:n_inequality]
+    residual = scaled_gradient + inequality_jacobian.T @ lam[:n_inequality]
     if equality_jacobian.size:
         nu = np.linalg.lstsq(equality_jacobian.T, -residual, rcond=None)[0]
         residual = residual + equality_jacobian.T @ nu
-    reference = float(np.linalg.norm(gradient / sigma)) or 1.0
+    reference = float(np.linalg.norm(scaled_gradient)) or 1.0
     violation = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
     residuals = {
         "stationarity": float(np.max(np.abs(residual), initial=0.0)),

@@ -94,10 +94,6 @@ class ReducedProblem:
         """Unknowns x (joint torsor coordinates, SI) from reduced ones y."""
         return self.scale * (self.basis @ y)
 
-    def y_from_x(self, x: np.ndarray) -> np.ndarray:
-        """Least-squares inverse of :meth:`x_from_y` (exact for x in the reduced space)."""
-        return self.basis.T @ (x / self.scale)
-
     def signature(self) -> tuple:
         """What a built solver depends on: sizes and shapes, not numbers."""
         return (self.size, tuple((c.contact.shape, c.rows.shape[0]) for c in self.contacts))

@@ -236,16 +236,27 @@ class _Reader:
         return block
 
     # -- joints ---------------------------------------------------------------------------
+    def _named(self, element, allowed: set[str], taken, duplicate: str, missing: str):
+        """(label, name) of a joint element with known attributes and a new, non-empty name."""
+        label = _label(element)
+        _check_attributes(self.source, element, allowed)
+        name = element.get("name")
+        if not name:
+            raise ModelError(self.source, label, missing)
+        if name in taken:
+            raise ModelError(self.source, label, duplicate)
+        return label, name
+
     def tree_joints(self, model: pin.Model, block: ET.Element):
         declared: dict[str, ET.Element] = {}
         for element in block.findall("joint"):
-            label = _label(element)
-            _check_attributes(self.source, element, JOINT_ATTRIBUTES)
-            name = element.get("name")
-            if not name:
-                raise ModelError(self.source, label, "needs a name (a URDF joint's name)")
-            if name in declared:
-                raise ModelError(self.source, label, "declared twice")
+            label, name = self._named(
+                element,
+                JOINT_ATTRIBUTES,
+                declared,
+                "declared twice",
+                "needs a name (a URDF joint's name)",
+            )
             if name not in self.urdf_joints:
                 raise ModelError(
                     self.source,
@@ -314,13 +325,13 @@ class _Reader:
         joints = []
         names = set(model.names)
         for element in block.findall("loop_joint"):
-            label = _label(element)
-            _check_attributes(self.source, element, LOOP_ATTRIBUTES)
-            name = element.get("name")
-            if not name:
-                raise ModelError(self.source, label, "needs a name")
-            if name in names:
-                raise ModelError(self.source, label, "a joint of that name exists already")
+            label, name = self._named(
+                element,
+                LOOP_ATTRIBUTES,
+                names,
+                "a joint of that name exists already",
+                "needs a name",
+            )
             names.add(name)
             frames = []
             for key in ("frame_a", "frame_b"):
