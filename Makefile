@@ -15,11 +15,8 @@ demo: $(BIN)/clearance-pin
 	$(BIN)/clearance-pin solve models/younes_sphere_cylinder.urdf --exact
 
 # one BLAS thread: the solver's matrices are small, and threads fight on a busy machine.
-# The random-mechanism property test runs in its own process first: after the whole suite in one
-# process it slows down by two orders of magnitude (state left by earlier tests, not yet found).
 test: $(BIN)/clearance-pin
-	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m pytest tests/test_random_mechanisms.py
-	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m pytest --ignore=tests/test_random_mechanisms.py
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m pytest
 
 validate: $(BIN)/clearance-pin
 	$(BIN)/python validation/younes2013.py --json out/younes2013.json

@@ -19,10 +19,11 @@ import numpy as np
 from ..errors import ClearancePinError
 from ..progress import Progress
 from .batch_newton import batched_newton
-from .load_terms import gather_body_loads, load_gradient
-from .reduction import UNBOUNDED_FRACTION
+from .kkt import UNLOADED
 
 BATCH_MINIMUM = 16
+RESIDUAL_NAMES = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
+REGROUP_ROUNDS = 4  # batched Newton rounds, each seeded by a single solve of a contact set
 
 
 class EquilibriumBatch(Sequence):
@@ -189,78 +190,122 @@ def solve_many(
 
 
 def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumBatch:
-    """Load cases at one configuration: one geometry, Newton on stacked arrays, then fallbacks."""
-    from .solve import _assemble, linear_setup
+    """Load cases at one configuration: one prepared geometry, the objectives of all cases from one
+    matrix product, Newton on stacked arrays per contact set, then single solves for the rest.
+
+    The first case is solved alone; its contact set seeds a batched Newton over all cases. Cases
+    that fail the verification are regrouped: the first of them is solved alone and seeds the
+    next batched round (at most :data:`REGROUP_ROUNDS`), and what is left is solved one by one.
+    """
+    from .solve import prepared_geometry
 
     first = _solve_chunk(mechanism, cases[:1], options, errors)[0]
     if isinstance(first, Exception) or first.status != "optimal":
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
-    resolved = [mechanism.resolve_loads(case_loads, options["gravity"]) for case_loads, _ in cases]
-    configuration, maps, _, problem0 = linear_setup(mechanism, resolved[0], None)
-    import pinocchio as pin
-
-    pin.framesForwardKinematics(mechanism.model, mechanism.data, configuration.q)
-    gradients = np.array(
-        [
-            load_gradient(
-                gather_body_loads(mechanism.model, mechanism.data, loads, mechanism.link_frames),
-                maps.body_twist,
-            )
-            for loads in resolved
-        ]
-    )
-    scaled = gradients * problem0.scale
-    references = np.linalg.norm(scaled, axis=1)
-    free = problem0.free_motions / problem0.scale[:, None]
-    along_free = np.linalg.norm(scaled @ free, axis=1) if free.size else np.zeros(len(cases))
-    reduced = scaled @ problem0.basis
-    sigmas = np.linalg.norm(reduced, axis=1)
-    regular = (along_free <= UNBOUNDED_FRACTION * references) & (sigmas > 0.0)
-    objectives = reduced / np.where(sigmas > 0.0, sigmas, 1.0)[:, None]
-    warm = mechanism._solve_state[("warm", problem0.signature())]
-    y, multipliers, verified, worst = batched_newton(
-        problem0.stack, objectives, warm.y, warm.multipliers, warm.signs
-    )
-    verified &= regular
-    x = (y @ problem0.basis.T) * problem0.scale
-    items: list = []
-    for i in range(len(cases)):
-        if verified[i]:
+    prepared = prepared_geometry(mechanism)
+    geometry = prepared.geometry
+    try:
+        wrenches = np.array(
+            [
+                prepared.wrenches(mechanism.resolve_loads(case_loads, options["gravity"])).ravel()
+                for case_loads, _ in cases
+            ]
+        )
+    except ClearancePinError:
+        return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
+    objectives, sigmas, gradients, regular = prepared.objectives(wrenches)
+    items: list = [None] * len(cases)
+    items[0] = first
+    pending = np.flatnonzero(regular)
+    pending = pending[pending > 0]
+    seed = mechanism._solve_state.get(("warm", prepared.signature))
+    x_all = np.full((len(cases), prepared.size_x), np.nan)
+    batched = np.zeros(len(cases), dtype=bool)
+    for _ in range(REGROUP_ROUNDS):
+        if seed is None or pending.size == 0:
+            break
+        y, multipliers, verified, table = batched_newton(
+            geometry.stack, objectives[pending], seed.y, seed.multipliers, seed.signs
+        )
+        y, verified = _minimum_norm(prepared, geometry.stack, seed, y, multipliers, verified)
+        for k in np.flatnonzero(verified):
+            i = pending[k]
             problem = replace(
-                problem0,
-                gradient=gradients[i],
+                _problem_with_gradient(prepared, gradients[i]),
                 objective=objectives[i],
                 objective_scale=float(sigmas[i]),
             )
-            items.append(
-                _lazy_item(
-                    mechanism,
-                    configuration,
-                    maps,
-                    problem,
-                    y[i],
-                    multipliers[i],
-                    warm.signs,
-                    worst[i],
-                    _assemble,
-                )
-            )
-        else:
-            items.append(None)
-    bar.update(int(verified.sum()))
-    for i in np.flatnonzero(~verified):
+            items[i] = _lazy_item(prepared, problem, y[k], multipliers[k], seed.signs, table[k])
+            x_all[i] = prepared.x_from_y @ y[k]
+            batched[i] = True
+        bar.update(int(verified.sum()))
+        pending = pending[~verified]
+        if pending.size == 0:
+            break
+        # the next group: seeded by a single solve of the first case left
+        i = pending[0]
         items[i] = _solve_chunk(mechanism, [cases[i]], options, errors)[0]
         bar.update()
-    torsor_maps = {name: maps.joint_torsor[name] for name in mechanism.joints}
-    return EquilibriumBatch(items, {"x": x, "batched": verified, "torsor_maps": torsor_maps})
+        pending = pending[1:]
+        solved = items[i]
+        seed = (
+            mechanism._solve_state.get(("warm", prepared.signature))
+            if not isinstance(solved, Exception)
+            else None
+        )
+    for i in range(len(cases)):
+        if items[i] is None:
+            items[i] = _solve_chunk(mechanism, [cases[i]], options, errors)[0]
+            bar.update()
+    torsor_maps = {name: prepared.maps.joint_torsor[name] for name in mechanism.joints}
+    return EquilibriumBatch(items, {"x": x_all, "batched": batched, "torsor_maps": torsor_maps})
 
 
-def _lazy_item(mechanism, configuration, maps, problem, y, multipliers, signs, worst, assemble):
+def _problem_with_gradient(prepared, gradient: np.ndarray):
+    """A reduced problem of the prepared geometry carrying the x-space load gradient g."""
+    from .reduction import ReducedProblem
+
+    geometry = prepared.geometry
+    return ReducedProblem(
+        gradient,
+        geometry.scale,
+        geometry.basis,
+        geometry.contacts,
+        geometry.equalities,
+        geometry.free_motions,
+        geometry.free_descriptions,
+        np.zeros(geometry.basis.shape[1]),
+        0.0,
+        geometry.contact_matrices,
+        geometry.stack,
+        geometry.conditioning,
+    )
+
+
+def _minimum_norm(prepared, stack, seed, y, multipliers, verified):
+    """Cases whose loaded contacts are the seed's: moved to the minimum-norm point along the
+    directions the load does not see (as a single solve does); other cases are left unverified."""
+    loaded_seed = seed.multipliers > UNLOADED * seed.multipliers.max(initial=0.0)
+    largest = multipliers.max(axis=1, initial=0.0)
+    same = np.all((multipliers > UNLOADED * largest[:, None]) == loaded_seed, axis=1)
+    verified = verified & same
+    flat, _ = prepared.flat_directions(np.flatnonzero(loaded_seed))
+    if flat.shape[1]:
+        centred = y - (y @ flat) @ flat.T
+        image = centred @ stack.matrix.T
+        squares = np.add.reduceat(image * image, stack.starts, axis=1)
+        phi = np.where(stack.is_norm, squares, np.abs(image[:, stack.starts])) - 1.0
+        inside = phi.max(axis=1, initial=-1.0) <= 1e-13
+        y = np.where(inside[:, None], centred, y)
+    return y, verified
+
+
+def _lazy_item(prepared, problem, y, multipliers, signs, table):
+    from .solve import _assemble
+
     def build():
-        return assemble(
-            mechanism,
-            configuration,
-            maps,
+        return _assemble(
+            prepared,
             problem,
             y,
             multipliers,
@@ -271,12 +316,10 @@ def _lazy_item(mechanism, configuration, maps, problem, y, multipliers, signs, w
             True,
             0.0,
             0.0,
-            {
-                "stationarity": float(worst),
-                "feasibility": 0.0,
-                "complementarity": 0.0,
-                "dual_infeasibility": 0.0,
-            },
+            dict(zip(RESIDUAL_NAMES, map(float, table))),
+            prepared.flat_directions(
+                np.flatnonzero(multipliers > UNLOADED * multipliers.max(initial=0.0))
+            )[1],
         )
 
     return build

@@ -35,7 +35,8 @@ def batched_newton(
         y0, multipliers0, signs: a verified solution of one case (its active set is used).
 
     Returns:
-        (Y (N, r), multipliers (N, m), verified (N,) bool, kkt residual (N,)).
+        (Y (N, r), multipliers (N, m), verified (N,) bool, residuals (N, 4): stationarity,
+        feasibility, complementarity and dual infeasibility, as :func:`~.kkt.residuals`).
     """
     count_cases = objectives.shape[0]
     active = np.flatnonzero(multipliers0 > 0.0)
@@ -66,8 +67,8 @@ def batched_newton(
         lam += step[:, size:]
     multipliers = np.zeros((count_cases, stack.count))
     multipliers[:, active] = lam
-    verified, kkt_residual = _verify(stack, objectives, y, multipliers, signs)
-    return y, np.maximum(multipliers, 0.0), verified, kkt_residual
+    verified, table = _verify(stack, objectives, y, multipliers, signs)
+    return y, np.maximum(multipliers, 0.0), verified, table
 
 
 def _evaluate(stack: StackedContacts, y: np.ndarray, signs: np.ndarray):
@@ -90,8 +91,10 @@ def _verify(stack: StackedContacts, objectives, y, multipliers, signs):
     feasibility = np.maximum(phi, 0.0).max(axis=1)
     complementarity = np.abs(multipliers * phi).max(axis=1)
     dual = np.maximum(-multipliers, 0.0).max(axis=1)
-    worst = np.maximum.reduce([stationarity, feasibility, complementarity, dual])
+    table = np.stack([stationarity, feasibility, complementarity, dual], axis=1)
     verified = (
-        (worst <= ACCEPT_KKT) & (multipliers.min(axis=1) >= -1e-12) & (phi.max(axis=1) <= 1e-13)
+        (table.max(axis=1) <= ACCEPT_KKT)
+        & (multipliers.min(axis=1) >= -1e-12)
+        & (phi.max(axis=1) <= 1e-13)
     )
-    return verified, worst
+    return verified, table

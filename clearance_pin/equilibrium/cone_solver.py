@@ -20,6 +20,7 @@ decides (``solve_linear`` raises :class:`~clearance_pin.errors.SolverError`).
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -35,6 +36,7 @@ NEARLY_TOUCHING = 1e-3
 WARM_ROUNDS = 2
 WARM_MAX_SIZE = 48  # dense Newton steps cost O(size^3): larger problems go to the sparse backend
 WARM_ITERATIONS = 6
+KEPT_SOLVERS = 8  # Clarabel solvers kept per backend, one per geometry (configuration)
 
 
 @dataclass
@@ -148,6 +150,7 @@ class ClarabelBackend:
         settings.tol_gap_abs = settings.tol_gap_rel = tol
         settings.tol_feas = settings.tol_ktratio = tol
         settings.max_iter = 100
+        settings.presolve_enable = False  # keeps the data updatable (a new load updates q only)
         self._settings = settings
         cones, rows = [], 0
         for shape, k in shapes:
@@ -160,45 +163,78 @@ class ClarabelBackend:
         self._cones = cones
         self._rows = rows
         self._zero = sparse.csc_matrix((size, size))
+        b, weights, starts = [], [], []
+        for shape, k in shapes:
+            starts.append(len(b))
+            if shape == "norm":
+                b.extend([1.0] + [0.0] * k)
+                weights.extend([0.5] + [0.0] * k)
+            else:
+                b.extend([1.0, 1.0])
+                weights.extend([1.0, 1.0])
+        self._b = np.array(b)
+        self._z_weights = np.array(weights)
+        self._z_starts = np.array(starts, dtype=int)
+        self._local = threading.local()  # a Clarabel solver may not be shared across threads
 
     def run(self, problem: ReducedProblem):
-        """(y, multipliers, status, iterations)."""
-        blocks, b = [], []
+        """(y, multipliers, status, iterations).
+
+        The cone data depend on the geometry only, so one Clarabel solver is kept per geometry
+        and thread (the last :data:`KEPT_SOLVERS`); a new load only updates the linear cost.
+        """
+        stack = problem.stack
+        solvers = self._local.__dict__.setdefault("solvers", {})
+        entry = solvers.pop(id(stack), None)
+        if entry is None or entry[0] is not stack:
+            # built on a fixed cost, then updated like every later solve: Clarabel's data scaling
+            # depends on the cost it was built with, and repeated solves must agree bitwise
+            solver = self._clarabel.DefaultSolver(
+                self._zero,
+                np.ones(problem.size),
+                self._cone_matrix(problem),
+                self._b,
+                self._cones,
+                self._settings,
+            )
+        else:
+            solver = entry[1]
+        solver.update(q=problem.objective)
+        solvers[id(stack)] = (stack, solver)  # most recent last
+        if len(solvers) > KEPT_SOLVERS:
+            del solvers[next(iter(solvers))]
+        result = solver.solve()
+        z = np.asarray(result.z, dtype=float)
+        # d||Py||/dy = (1/2) d||Py||^2/dy on the sphere; a slab's two sides add
+        multipliers = np.add.reduceat(z * self._z_weights, self._z_starts)
+        return (
+            np.asarray(result.x, dtype=float),
+            multipliers,
+            f"clarabel: {result.status}",
+            int(result.iterations),
+        )
+
+    def _cone_matrix(self, problem: ReducedProblem):
+        blocks = []
         for contact, matrix in zip(problem.contacts, problem.contact_matrices):
             if contact.contact.shape == "norm":
                 blocks.append(np.vstack([np.zeros((1, problem.size)), -matrix]))
-                b.extend([1.0] + [0.0] * matrix.shape[0])
             else:
                 blocks.append(np.vstack([matrix, -matrix]))
-                b.extend([1.0, 1.0])
-        a_matrix = self._sparse.csc_matrix(np.vstack(blocks))
-        solver = self._clarabel.DefaultSolver(
-            self._zero, problem.objective, a_matrix, np.array(b), self._cones, self._settings
-        )
-        result = solver.solve()
-        y = np.asarray(result.x, dtype=float)
-        z = np.asarray(result.z, dtype=float)
-        multipliers, row = [], 0
-        for contact, matrix in zip(problem.contacts, problem.contact_matrices):
-            if contact.contact.shape == "norm":
-                multipliers.append(0.5 * z[row])  # d||Py||/dy = (1/2) d||Py||^2/dy on the sphere
-                row += matrix.shape[0] + 1
-            else:
-                multipliers.append(z[row] + z[row + 1])
-                row += 2
-        return y, np.array(multipliers), f"clarabel: {result.status}", int(result.iterations)
+        return self._sparse.csc_matrix(np.vstack(blocks))
 
 
 _BACKENDS: dict[tuple, object] = {}
 
 
-def backend_for(problem: ReducedProblem, backend: str = "auto", tol: float = 1e-12):
-    """The built backend for this problem's signature, and whether it was built now."""
+def backend_for(problem: ReducedProblem, backend: str = "auto", tol: float = 1e-12, signature=None):
+    """The built backend for this problem's signature (``problem.signature()`` unless given), and
+    whether it was built now."""
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; expected one of {BACKENDS}")
     if backend == "auto":
         backend = "clarabel" if clarabel_available() else "ipopt"
-    key = (backend, problem.signature(), tol)
+    key = (backend, problem.signature() if signature is None else signature, tol)
     if key in _BACKENDS:
         return _BACKENDS[key], False
     built = ClarabelBackend(key[1], tol) if backend == "clarabel" else IpoptBackend(key[1], tol)

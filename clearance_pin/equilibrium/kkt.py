@@ -48,6 +48,37 @@ class StackedContacts:
         self.is_norm = np.array([s == "norm" for s in shapes], dtype=bool)
         self.row_contact = np.repeat(np.arange(self.count), lengths)
         self.row_is_norm = self.is_norm[self.row_contact] if self.count else np.zeros(0, bool)
+        # Hessian blocks O_j = P_j^T P_j of the balls and discs (zero for slabs)
+        self.outer = np.zeros((self.count, size, size))
+        for j, m in enumerate(matrices):
+            if self.is_norm[j]:
+                self.outer[j] = m.T @ m
+        self._subsets: dict[bytes, tuple] = {}
+
+    def subset(self, active: np.ndarray) -> tuple:
+        """Rows of the contacts ``active`` (memoised): (P_A, first row of each contact in P_A,
+        per row 1.0 for a ball or disc row and 0.0 for a slab row, per row its index in
+        ``active``, O_A flattened to (a, r * r))."""
+        key = active.tobytes()
+        cached = self._subsets.get(key)
+        if cached is None:
+            rows = (
+                np.concatenate([np.flatnonzero(self.row_contact == j) for j in active]).astype(int)
+                if active.size
+                else np.zeros(0, dtype=int)
+            )
+            local = np.searchsorted(active, self.row_contact[rows])
+            starts = np.flatnonzero(np.r_[True, local[1:] != local[:-1]]) if rows.size else rows
+            cached = (
+                self.matrix[rows],
+                starts,
+                self.row_is_norm[rows].astype(float),
+                local,
+                self.outer[active].reshape(active.size, -1),
+            )
+            if len(self._subsets) < 256:
+                self._subsets[key] = cached
+        return cached
 
     def values(self, y: np.ndarray, signs: np.ndarray) -> np.ndarray:
         """phi_j(y) for every contact (slabs on their side ``signs``; |.| if signs is None)."""
@@ -84,13 +115,14 @@ class StackedContacts:
 
 def residuals(stack: StackedContacts, objective, y, multipliers, signs) -> dict[str, float]:
     """Measured KKT residuals (max norms): stationarity, feasibility, complementarity, dual."""
-    phi = stack.values(y, None)
-    gradients = stack.gradients(y, signs)
+    values, gradients = stack.evaluate(y, signs)
+    slab = ~stack.is_norm
+    values[slab] = np.abs(values[slab] + 1.0) - 1.0  # feasibility of a slab on either side
     return {
-        "stationarity": float(np.max(np.abs(objective + gradients.T @ multipliers), initial=0.0)),
-        "feasibility": float(np.max(phi, initial=0.0)),
-        "complementarity": float(np.max(np.abs(multipliers * phi), initial=0.0)),
-        "dual_infeasibility": float(max(0.0, -np.min(multipliers, initial=0.0))),
+        "stationarity": float(np.abs(objective + multipliers @ gradients).max(initial=0.0)),
+        "feasibility": float(values.max(initial=0.0)),
+        "complementarity": float(np.abs(multipliers * values).max(initial=0.0)),
+        "dual_infeasibility": float(max(0.0, -multipliers.min(initial=0.0))),
     }
 
 
@@ -104,53 +136,79 @@ def newton(
     iterations: int = 12,
     accept: float = ACCEPT_KKT,
 ):
-    """Newton on the KKT system of ``active``; returns (y, lambda_active) or None."""
+    r"""Newton on the KKT system of ``active``; returns (y, lambda_active, G_A) or None.
+
+    Gradients come from the images :math:`P_A y` (accurate to round-off of :math:`\|P\|\|y\|`):
+    :math:`G_j = \sum_{i \in j} w_i P_i` with :math:`w_i = 2 (P y)_i` (ball, disc) or
+    :math:`s_j` (slab), and :math:`\phi_j = \tfrac12 G_j^T y - 1` (ball, disc) or
+    :math:`G_j^T y - 1` (slab); the Hessian :math:`2 \sum_A \lambda_j P_j^T P_j` comes from the
+    stored blocks. This runs once per re-solve, so it is written for few array operations.
+    """
     size, count = stack.size, active.size
-    kkt = np.zeros((size + count, size + count))
-    residual = np.empty(size + count)
-    y = y.copy()
-    lam = multipliers[active].copy()
-    full = np.zeros(stack.count)
+    rows, starts, norm_rows, local, outer = stack.subset(active)
+    slab_signs = (1.0 - norm_rows) * signs[active][local]
+    twice_norm = 2.0 * norm_rows
+    value_weight = np.where(stack.is_norm[active], 0.5, 1.0)
+    twice_outer = 2.0 * outer
+    kkt = np.empty((size + count, size + count))
+    # proximal term on the multipliers: redundant contacts sharing a load make the KKT matrix
+    # singular (forces not unique); this keeps them bounded and leaves y's solution exact
+    kkt[size:, size:] = -PROXIMAL * np.eye(count)
+    unknowns = np.concatenate((y, multipliers[active]))
+    y, lam = unknowns[:size], unknowns[size:]  # views: one update moves both
+    converged = POLISH_TOL * POLISH_TOL
     for iteration in range(iterations + 1):
-        values, gradients = stack.evaluate(y, signs)
-        gradients = gradients[active]
-        residual[:size] = objective + gradients.T @ lam
-        residual[size:] = values[active]
-        size_now = np.abs(residual).max()
-        if size_now < POLISH_TOL:
-            return y, lam
-        if iteration == iterations or (iteration >= 6 and size_now > 1e-4):
+        weight = twice_norm * np.dot(rows, y) + slab_signs
+        gradients = np.add.reduceat(rows * weight[:, None], starts)
+        residual = np.concatenate(
+            (objective + np.dot(lam, gradients), value_weight * np.dot(gradients, y) - 1.0)
+        )
+        size_now = np.dot(residual, residual)
+        if size_now < converged:
+            return y.copy(), lam.copy(), gradients
+        if iteration == iterations or (iteration >= 6 and size_now > 1e-8):
             break  # quadratic convergence did not set in: a wrong active set, give up early
-        full[active] = lam
-        kkt[:size, :size] = stack.hessian(full)
+        kkt[:size, :size] = np.dot(lam, twice_outer).reshape(size, size)
         kkt[:size, size:] = gradients.T
         kkt[size:, :size] = gradients
-        # proximal term on the multipliers: redundant contacts sharing a load make the KKT matrix
-        # singular (forces not unique); this keeps them bounded and leaves y's solution exact
-        kkt[size:, size:] = -PROXIMAL * np.eye(count)
         step = _kkt_step(kkt, residual)
         if step is None:
             return None
-        y += step[:size]
-        lam += step[size:]
-    return (y, lam) if np.abs(residual).max() <= accept else None
+        unknowns -= step
+    if np.abs(residual).max() <= accept:
+        return y.copy(), lam.copy(), gradients
+    return None
 
 
 def _kkt_step(kkt: np.ndarray, residual: np.ndarray):
-    """Newton step, by LU; by least squares when the KKT matrix is singular (redundant contacts
-    sharing the load, so the multipliers are not unique: LU then returns a huge, wrong step)."""
-    try:
-        step = np.linalg.solve(kkt, -residual)
-        if (
-            np.isfinite(step).all()
-            and np.abs(kkt @ step + residual).max() <= 1e-9 * (1.0 + np.abs(residual).max())
-            and np.abs(step).max() < 1e6
-        ):
-            return step
-    except np.linalg.LinAlgError:
-        pass
-    step = np.linalg.lstsq(kkt, -residual, rcond=None)[0]
+    """Newton step :math:`K^{-1} r` (subtract it), by LU; by least squares when the KKT matrix is
+    singular (redundant contacts sharing the load, so the multipliers are not unique: LU then
+    returns a huge, wrong step)."""
+    step = _lu_solve(kkt, residual)
+    if step is not None and np.dot(step, step) < 1e12:  # NaN fails the test
+        return step
+    step = np.linalg.lstsq(kkt, residual, rcond=None)[0]
     return step if np.isfinite(step).all() else None
+
+
+def _numpy_lu_solve(matrix: np.ndarray, right: np.ndarray):
+    try:
+        return np.linalg.solve(matrix, right)
+    except np.linalg.LinAlgError:
+        return None
+
+
+def _lapack_lu_solve(matrix: np.ndarray, right: np.ndarray):
+    _, _, solution, info = _dgesv(matrix, right)
+    return solution if info == 0 else None
+
+
+try:  # LAPACK's dgesv without NumPy's wrapper costs a third (SciPy comes with the fast extra)
+    from scipy.linalg.lapack import dgesv as _dgesv
+
+    _lu_solve = _lapack_lu_solve
+except ImportError:  # pragma: no cover - depends on the installed extras
+    _lu_solve = _numpy_lu_solve
 
 
 def active_set_solve(
@@ -197,7 +255,7 @@ def active_set_solve(
             signs = stack.sides(y)
             active = np.union1d(active, [added])
             continue
-        y_new, lam_active = solved
+        y_new, lam_active, gradients = solved
         negative = active[lam_active < -1e-12]
         if negative.size:
             active = np.setdiff1d(active, negative)
@@ -209,8 +267,13 @@ def active_set_solve(
             active = np.union1d(active, violated)
             continue
         lam_new = np.zeros(stack.count)
-        lam_new[active] = _minimum_norm_forces(stack, objective, y_new, signs, active, lam_active)
-        measured = residuals(stack, objective, y_new, lam_new, signs)
+        lam_new[active] = _minimum_norm_forces(gradients, objective, lam_active)
+        measured = {
+            "stationarity": float(np.abs(objective + np.dot(lam_new[active], gradients)).max()),
+            "feasibility": float(max(phi_new.max(), 0.0)),
+            "complementarity": float(np.abs(lam_new * phi_new).max()),
+            "dual_infeasibility": 0.0,  # lam_new >= 0 by construction
+        }
         if max(measured.values()) <= accept:
             return y_new, lam_new, signs, measured
         return None
@@ -230,11 +293,14 @@ def _contact_to_release(stack, objective, y, signs, active):
     return most_open if values[most_open] < -1e-14 else None
 
 
-def _minimum_norm_forces(stack, objective, y, signs, active, newton_multipliers):
-    """Contact multipliers at a solved y: the minimum-norm set balancing the load when it is
-    non-negative (statically indeterminate contacts share the load evenly), else Newton's."""
-    _, gradients = stack.evaluate(y, signs)
-    least = np.linalg.lstsq(gradients[active].T, -objective, rcond=None)[0]
+def _minimum_norm_forces(gradients, objective, newton_multipliers):
+    """Contact multipliers at a solved y: Newton's when the active gradients ``gradients`` (a, r)
+    are independent (the forces are unique); otherwise the minimum-norm set balancing the load
+    when it is non-negative (statically indeterminate contacts share the load evenly)."""
+    singular = np.linalg.svd(gradients, compute_uv=False)
+    if gradients.shape[0] <= gradients.shape[1] and singular[-1] > 1e-10 * singular[0]:
+        return np.maximum(newton_multipliers, 0.0)
+    least = np.linalg.lstsq(gradients.T, -objective, rcond=None)[0]
     if np.all(least >= -1e-14):
         return np.maximum(least, 0.0)
     return np.maximum(newton_multipliers, 0.0)

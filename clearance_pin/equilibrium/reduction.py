@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import UnboundedLoadError
 from ..model.clearance import COMPONENT_MEANING, COMPONENT_NAMES, ContactPoint
+from ..numerics import norm
 from .kkt import StackedContacts
 from .small_displacement import SmallDisplacementMaps, null_space
 
@@ -70,6 +71,8 @@ class ReducedProblem:
         contact_matrices: P_j, one (k_j, r) array per contact.
         stack: the P_j stacked for vectorised KKT evaluation.
         conditioning: see :func:`closure_conditioning`.
+        load_size: size of the whole load on the clearance scale [J] (see
+            :func:`with_scaled_load`), the reference of relative residuals.
     """
 
     gradient: np.ndarray
@@ -84,6 +87,7 @@ class ReducedProblem:
     contact_matrices: tuple[np.ndarray, ...]
     stack: StackedContacts
     conditioning: float = 1.0
+    load_size: float = 0.0
 
     @property
     def size(self) -> int:
@@ -189,9 +193,34 @@ def with_load(
     length_scale: float,
     load_size: float = 0.0,
 ) -> ReducedProblem:
+    """The reduced problem for one load gradient g (x-space); see :func:`with_scaled_load`."""
+    scaled_gradient = geometry.scale * gradient
+    return with_scaled_load(
+        geometry,
+        scaled_gradient,
+        geometry.basis.T @ scaled_gradient,
+        geometry.free_scaled.T @ scaled_gradient,
+        maps,
+        joints,
+        length_scale,
+        load_size,
+    )
+
+
+def with_scaled_load(
+    geometry: ReducedGeometry,
+    scaled_gradient: np.ndarray,
+    reduced_gradient: np.ndarray,
+    along_free: np.ndarray,
+    maps: SmallDisplacementMaps,
+    joints: dict,
+    length_scale: float,
+    load_size: float = 0.0,
+) -> ReducedProblem:
     """The reduced problem for one load: objective f and the check for unbounded loads.
 
     Args:
+        scaled_gradient: Z g, (n,); reduced_gradient: Q^T Z g, (r,); along_free: K^T Z g, (f,).
         load_size: size of the whole load on the clearance scale [J] (forces x play, moments x
             play / length), the reference for the unbounded test; 0 uses the working part only.
 
@@ -200,24 +229,23 @@ def with_load(
             the load).
     """
     scale = geometry.scale
-    scaled_gradient = scale * gradient
     # compare with the whole load (load_size), not only its working part: a load through a
     # pivot leaves a round-off moment that is all "working part" but nothing of the load
-    reference = max(float(np.linalg.norm(scaled_gradient)), load_size)
-    along_free = geometry.free_scaled.T @ scaled_gradient
-    if reference > 0.0 and np.linalg.norm(along_free) > UNBOUNDED_FRACTION * reference:
+    gradient_size = norm(scaled_gradient)
+    reference = max(gradient_size, load_size)
+    free_size = norm(along_free)
+    if reference > 0.0 and free_size > UNBOUNDED_FRACTION * reference:
         motion = scale * (geometry.free_scaled @ along_free)
         raise UnboundedLoadError(
             describe_motion(maps, joints, motion, length_scale),
-            min(1.0, float(np.linalg.norm(along_free) / np.linalg.norm(scaled_gradient))),
+            min(1.0, free_size / gradient_size),
         )
-    reduced_gradient = geometry.basis.T @ scaled_gradient
-    sigma = float(np.linalg.norm(reduced_gradient))
+    sigma = norm(reduced_gradient)
     if sigma <= ROUND_OFF_WORK * reference:
         reduced_gradient, sigma = np.zeros_like(reduced_gradient), 0.0  # round-off: no working load
     objective = reduced_gradient / sigma if sigma > 0.0 else reduced_gradient
     return ReducedProblem(
-        gradient,
+        scaled_gradient / scale,
         scale,
         geometry.basis,
         geometry.contacts,
@@ -229,6 +257,7 @@ def with_load(
         geometry.contact_matrices,
         geometry.stack,
         geometry.conditioning,
+        load_size,
     )
 
 

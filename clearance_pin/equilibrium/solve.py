@@ -13,28 +13,25 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ConditioningWarning, SolverError
-from ..numerics import cross
 from .cone_solver import backend_for, solve_cone
 from .kkt import UNLOADED
-from .load_terms import gather_body_loads, load_gradient
-from .reduction import ReducedProblem, describe_motion, reduce_geometry, with_load
+from .load_terms import gather_body_loads
+from .prepared import LazyMapping, LazyPlacements, PreparedGeometry
+from .reduction import ReducedProblem, reduce_geometry
 from .result import Contact, Equilibrium
-from .small_displacement import SmallDisplacementMaps, build_maps, null_space
+from .small_displacement import build_maps
 
 ACTIVE_RELATIVE_GAP = 1e-7
 CONDITIONING_WARNING = 1e-6
 FINITE_ROTATION = 1e-2  # [rad] a linear answer turning a joint more than this is not small
 
 
-def linear_setup(mechanism, loads, q):
-    """Configuration, maps, per-body loads and reduced problem for one solve.
-
-    Everything but the load terms is cached per nominal configuration, so a new load costs a
-    matrix-vector product and the unbounded-load test.
-    """
+def prepared_geometry(mechanism, q=None) -> PreparedGeometry:
+    """The mechanism prepared at ``q`` (default: nominal), cached per configuration: closing the
+    loops, the maps and the reduction are done once, so a new load costs a few array products."""
     key = ("geometry", None if q is None else np.asarray(q, dtype=float).tobytes())
-    cached = mechanism._solve_state.get(key)
-    if cached is None:
+    prepared = mechanism._solve_state.get(key)
+    if prepared is None:
         configuration = mechanism.configure(q)
         maps = build_maps(
             mechanism.model, mechanism.data, mechanism.tree_joints, mechanism.loop_joints
@@ -44,31 +41,18 @@ def linear_setup(mechanism, loads, q):
             mechanism._solve_state = {
                 k: v for k, v in mechanism._solve_state.items() if k[0] != "geometry"
             }
-        cached = mechanism._solve_state[key] = (configuration, maps, geometry)
-    configuration, maps, geometry = cached
+        prepared = PreparedGeometry(mechanism, configuration, maps, geometry)
+        mechanism._solve_state[key] = prepared
+    return prepared
+
+
+def linear_setup(mechanism, loads, q):
+    """Configuration, maps, per-body loads (with the exact model's terms) and reduced problem."""
+    prepared = prepared_geometry(mechanism, q)
+    configuration = prepared.configuration
     pin.framesForwardKinematics(mechanism.model, mechanism.data, configuration.q)
     body_loads = gather_body_loads(mechanism.model, mechanism.data, loads, mechanism.link_frames)
-    gradient = load_gradient(body_loads, maps.body_twist)
-    problem = with_load(
-        geometry,
-        gradient,
-        maps,
-        mechanism.joints,
-        mechanism.length_scale(),
-        load_size(body_loads, geometry.scale, mechanism.length_scale()),
-    )
-    return configuration, maps, body_loads, problem
-
-
-def load_size(body_loads, scale, length: float) -> float:
-    """The whole load on the clearance scale [J]: sum of |F| c + |M| c / L over the bodies, with
-    c the median variable scale, M the moment at the world origin and L the length scale."""
-    play = float(np.median(scale)) if scale.size else 0.0
-    return sum(
-        float(np.linalg.norm(b.wrench[:3])) * play
-        + float(np.linalg.norm(b.wrench[3:])) * play / max(length, 1e-300)
-        for b in body_loads.values()
-    )
+    return configuration, prepared.maps, body_loads, prepared.problem(loads)
 
 
 def solve_linear(
@@ -76,17 +60,22 @@ def solve_linear(
 ) -> Equilibrium:
     """Small-displacement equilibrium (METHOD.md section 1) with its residuals measured."""
     started = time.perf_counter()
-    configuration, maps, _, problem = linear_setup(mechanism, loads, q)
-    if problem.objective_scale == 0.0 or not problem.contacts or problem.size == 0:
-        y = np.zeros(problem.size)
-        return _assemble(
-            mechanism,
-            configuration,
-            maps,
+    prepared = prepared_geometry(mechanism, q)
+    problem = prepared.problem(loads)
+    count = len(problem.contacts)
+    if not (np.isfinite(problem.objective_scale) and np.isfinite(problem.objective).all()):
+        raise SolverError(
+            f"the load terms of {mechanism.name!r} are not finite numbers; check the model's "
+            "sizes, clearances and loads for extreme values",
+            "not run",
+        )
+    if problem.objective_scale == 0.0 or not count or problem.size == 0:
+        indeterminate = _assemble(
+            prepared,
             problem,
-            y,
-            np.zeros(len(problem.contacts)),
-            np.ones(len(problem.contacts)),
+            np.zeros(problem.size),
+            np.zeros(count),
+            np.ones(count),
             "indeterminate",
             "no load works on any admissible motion",
             0,
@@ -95,27 +84,36 @@ def solve_linear(
             time.perf_counter() - started,
             {},
         )
-    built, built_now = backend_for(problem, backend, tol)
-    warm_key = ("warm", problem.signature())
+        if not indeterminate.ok:
+            raise SolverError(
+                "the nominal position fails its own residual checks",
+                "not run",
+                indeterminate.residuals,
+            )
+        return indeterminate
+    built, built_now = backend_for(problem, backend, tol, prepared.signature)
+    warm_key = ("warm", prepared.signature)
     warm = mechanism._solve_state.get(warm_key) if warm_start else None
     solution = solve_cone(problem, built, warm=warm)
     if not solution.polished and built.name != "ipopt":
-        fallback, fallback_built = backend_for(problem, "ipopt", tol)
+        fallback, fallback_built = backend_for(problem, "ipopt", tol, prepared.signature)
         second = solve_cone(problem, fallback)
         if second.polished or second.kkt_residual < solution.kkt_residual:
             second.status = f"{solution.status}, unverified; then {second.status}"
             solution, built, built_now = second, fallback, fallback_built
+    flat_notes: tuple[str, ...] = ()
     if solution.polished:
         mechanism._solve_state[warm_key] = solution
-    flat = flat_directions(problem, solution)
-    if flat.shape[1]:
-        centred = solution.y - flat @ (flat.T @ solution.y)
-        if np.max(problem.stack.values(centred, None), initial=0.0) <= 1e-13:
-            solution.y = centred
+        largest = float(solution.multipliers.max(initial=0.0))
+        flat, flat_notes = prepared.flat_directions(
+            np.flatnonzero(solution.multipliers > UNLOADED * largest)
+        )
+        if flat.shape[1]:
+            centred = solution.y - flat @ (flat.T @ solution.y)
+            if np.max(problem.stack.values(centred, None), initial=0.0) <= 1e-13:
+                solution.y = centred
     equilibrium = _assemble(
-        mechanism,
-        configuration,
-        maps,
+        prepared,
         problem,
         solution.y,
         solution.multipliers,
@@ -127,38 +125,9 @@ def solve_linear(
         built.build_time if built_now else 0.0,
         time.perf_counter() - started,
         solution.residuals,
+        flat_notes,
     )
-    if flat.shape[1]:
-        equilibrium.free_motions = equilibrium.free_motions + tuple(
-            "bounded but not loaded (the optimum is not unique; minimum-norm point returned): "
-            + "; ".join(
-                describe_motion(
-                    maps, mechanism.joints, problem.x_from_y(flat[:, i]), mechanism.length_scale()
-                )
-            )
-            for i in range(flat.shape[1])
-        )
-    largest_rotation = max(
-        (float(np.linalg.norm(t[3:])) for t in equilibrium.torsors.values()), default=0.0
-    )
-    if largest_rotation > FINITE_ROTATION:
-        warnings.warn(
-            ConditioningWarning(
-                f"{mechanism.name}: the small-displacement answer turns a joint by "
-                f"{largest_rotation:.2g} rad, beyond the model's validity (rotations << 1): "
-                "the mechanism is near a toggle position; solve with exact=True"
-            ),
-            stacklevel=3,
-        )
-    if problem.conditioning < CONDITIONING_WARNING:
-        warnings.warn(
-            ConditioningWarning(
-                f"{mechanism.name}: the loop closure is nearly singular (conditioning "
-                f"{problem.conditioning:.1e}; a toggle or dead-centre position?): expect the answer "
-                f"to lose about {-np.log10(problem.conditioning):.0f} digits"
-            ),
-            stacklevel=3,
-        )
+    _warn_if_inaccurate(mechanism, equilibrium, problem.conditioning)
     if not equilibrium.ok or not solution.polished:
         raise SolverError(
             "the small-displacement solve did not reach a verified optimum",
@@ -168,34 +137,31 @@ def solve_linear(
     return equilibrium
 
 
-def flat_directions(problem: ReducedProblem, solution) -> np.ndarray:
-    r"""Directions (r, k) along which the optimum is not unique although the play bounds them.
-
-    A contact carrying less than :data:`~.kkt.UNLOADED` (1e-9) of the largest contact force counts
-    as unloaded, the same share below which a load component along an unblocked motion is
-    neglected (:data:`~.reduction.UNBOUNDED_FRACTION`): the answer then moves continuously to
-    the minimum-norm point as that share falls through 1e-9, with an energy change of that order.
-
-    At a verified optimum with contact set A, a direction d with :math:`G_A d = 0` (it keeps every
-    contact) and :math:`\nabla^2 L\, d = 0` (no curvature of the active cones along it) changes
-    neither the potential nor feasibility to second order: the load does not see it (for example
-    the axial play of a journal loaded only radially).
-    """
-    if not solution.polished:
-        return np.zeros((problem.size, 0))
-    stack = problem.stack
-    largest = float(np.max(solution.multipliers, initial=0.0))
-    active = np.flatnonzero(solution.multipliers > UNLOADED * largest)
-    _, gradients = stack.evaluate(solution.y, solution.signs)
-    rows = np.vstack([gradients[active], stack.hessian(solution.multipliers)])
-    scale = max(1.0, float(np.abs(rows).max(initial=0.0)))
-    return null_space(rows / scale, rtol=1e-9) if rows.size else np.eye(problem.size)
+def _warn_if_inaccurate(mechanism, equilibrium: Equilibrium, conditioning: float) -> None:
+    """ConditioningWarning for a finite rotation or a nearly singular loop closure."""
+    largest_rotation = equilibrium.residuals.get("largest_rotation_rad", 0.0)
+    if largest_rotation > FINITE_ROTATION:
+        warnings.warn(
+            ConditioningWarning(
+                f"{mechanism.name}: the small-displacement answer turns a joint by "
+                f"{largest_rotation:.2g} rad, beyond the model's validity (rotations << 1): "
+                "the mechanism is near a toggle position; solve with exact=True"
+            ),
+            stacklevel=5,
+        )
+    if conditioning < CONDITIONING_WARNING:
+        warnings.warn(
+            ConditioningWarning(
+                f"{mechanism.name}: the loop closure is nearly singular (conditioning "
+                f"{conditioning:.1e}; a toggle or dead-centre position?): expect the answer "
+                f"to lose about {-np.log10(conditioning):.0f} digits"
+            ),
+            stacklevel=5,
+        )
 
 
 def _assemble(
-    mechanism,
-    configuration,
-    maps: SmallDisplacementMaps,
+    prepared: PreparedGeometry,
     problem: ReducedProblem,
     y,
     multipliers,
@@ -207,89 +173,53 @@ def _assemble(
     build_time,
     solve_time,
     residuals,
+    flat_notes: tuple[str, ...] = (),
 ) -> Equilibrium:
-    x = problem.x_from_y(y)
-    torsors = {name: maps.joint_torsor[name] @ x for name in mechanism.joints}
-    model = mechanism.model
-    twists = [maps.body_twist[i] @ x for i in range(model.njoints)]
-    oMi = configuration.oMi
-    body_motions = {
-        model.names[i]: (twists[i][:3] + cross(twists[i][3:], oMi[i].translation), twists[i][3:])
-        for i in range(1, model.njoints)
-    }
-    contacts = _contacts(problem, x, multipliers, signs)
-    residuals = dict(residuals)
-    residuals["statics"] = statics_residual(problem, x, contacts)
-    residuals["max_violation_m"] = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
-    residuals["max_violation_rel"] = max(
-        (max(-c.gap, 0.0) / c.clearance for c in contacts), default=0.0
+    x = prepared.x_from_y @ y
+    torsor_array = prepared.torsor_array(x)
+    twists = prepared.body_twists(x)
+    mechanism = prepared.mechanism
+    gaps, force_rows = prepared.contact_state(x, multipliers, signs, problem.objective_scale)
+    bounds = prepared.bounds
+    active = (gaps <= ACTIVE_RELATIVE_GAP * bounds) | (
+        (multipliers > 0.0) & (gaps <= 1e-6 * bounds)
     )
-    residuals["clearance_m"] = max((c.clearance for c in contacts), default=0.0)
+    contacts = tuple(
+        Contact(c.joint, c.contact.name, float(gap), float(bound), force, bool(touching))
+        for c, gap, bound, force, touching in zip(
+            problem.contacts, gaps, bounds, prepared.contact_forces(force_rows), active
+        )
+    )
+    residuals = dict(residuals)
+    residuals["statics"] = prepared.statics_residual(
+        problem.gradient, force_rows, problem.load_size
+    )
+    residuals["max_violation_m"] = max(float(-gaps.min(initial=0.0)), 0.0)
+    residuals["max_violation_rel"] = max(float((-gaps / bounds).max(initial=0.0)), 0.0)
+    residuals["clearance_m"] = float(bounds.max(initial=0.0))
     residuals["closure_conditioning"] = problem.conditioning
-    placements = tuple(
-        [oMi[0]] + [pin.exp6(pin.Motion(twists[i])) * oMi[i] for i in range(1, model.njoints)]
+    residuals["largest_rotation_rad"] = float(
+        np.sqrt((torsor_array[:, 3:] ** 2).sum(axis=1)).max(initial=0.0)
     )
     return Equilibrium(
         formulation="linear",
-        torsors=torsors,
-        body_motions=body_motions,
+        torsors=dict(zip(prepared.joint_names, torsor_array)),
+        body_motions=LazyMapping(lambda: prepared.body_motions(twists, mechanism.model.names)),
         contacts=contacts,
         energy=float(problem.gradient @ x),
         status=status,
         solver_status=solver_status,
         iterations=iterations,
         residuals=residuals,
-        free_motions=problem.free_descriptions,
+        free_motions=problem.free_descriptions + flat_notes,
         build_time=build_time,
         solve_time=solve_time,
         polished=polished,
-        body_placements=placements,
+        body_placements=LazyPlacements(twists, prepared.configuration.oMi),
         mechanism=mechanism,
-        configuration=configuration,
-        body_twists=np.array(twists),
+        configuration=prepared.configuration,
+        body_twists=twists,
     )
-
-
-def _contacts(problem: ReducedProblem, x, multipliers, signs) -> tuple[Contact, ...]:
-    contacts = []
-    for j, constraint in enumerate(problem.contacts):
-        point = constraint.contact
-        image = constraint.rows @ x
-        bound = point.bound
-        if point.shape == "norm":
-            gap = bound - float(np.linalg.norm(image))
-            local = -2.0 * problem.objective_scale * multipliers[j] * image / bound**2
-        else:
-            gap = bound - abs(float(image[0]))
-            local = np.array([-problem.objective_scale * multipliers[j] * signs[j] / bound])
-        force = np.zeros(3)
-        force[list(point.components)] = local
-        active = gap <= ACTIVE_RELATIVE_GAP * bound or (
-            multipliers[j] > 0.0 and gap <= 1e-6 * bound
-        )
-        contacts.append(Contact(constraint.joint, point.name, gap, bound, force, bool(active)))
-    return tuple(contacts)
-
-
-def statics_residual(problem: ReducedProblem, x: np.ndarray, contacts) -> float:
-    r"""Relative virtual-work residual of the load and the reported contact forces.
-
-    For every admissible motion the load and the contact forces do no net work:
-    :math:`g = \sum_j S_j^T f_j + E^T \nu` with the rigid reactions :math:`\nu` fitted by least
-    squares; returns :math:`\|Z (g - \sum S_j^T f_j - E^T\nu)\| / \|Z g\|` (Z: variable scales).
-    """
-    residual = problem.gradient.copy()
-    for constraint, contact in zip(problem.contacts, contacts):
-        residual -= constraint.rows.T @ contact.force[list(constraint.contact.components)]
-    scale = problem.scale
-    if problem.equalities.size:
-        reactions = problem.equalities.T * scale[:, None]
-        nu = np.linalg.lstsq(reactions, scale * residual, rcond=None)[0]
-        scaled = scale * residual - reactions @ nu
-    else:
-        scaled = scale * residual
-    reference = float(np.linalg.norm(scale * problem.gradient))
-    return float(np.linalg.norm(scaled) / reference) if reference > 0.0 else 0.0
 
 
 def solve_exact(mechanism, loads, q, linear: Equilibrium, tol: float = 1e-12) -> Equilibrium:
@@ -299,4 +229,4 @@ def solve_exact(mechanism, loads, q, linear: Equilibrium, tol: float = 1e-12) ->
     return solve_exact_model(mechanism, loads, q, linear, tol)
 
 
-__all__ = ["solve_linear", "solve_exact", "statics_residual"]
+__all__ = ["prepared_geometry", "solve_exact", "solve_linear"]

@@ -1,0 +1,338 @@
+r"""Everything a small-displacement solve at one nominal configuration needs, computed once.
+
+Build once, solve many: a planner re-solves the same configuration with new loads thousands of
+times, so every load-independent product is formed here, and a solve costs a few array products.
+
+- *Load to objective.* The loads gather into body wrenches :math:`W_b = (F, p \times F + C)` at the
+  world origin (:mod:`.load_terms`); the scaled gradient of the potential is
+  :math:`Z g = -\sum_b Z J_b^T W_b` (:math:`J_b`: body twist map), and its reduced part
+  :math:`Q^T Z g` and its part along the unblocked motions :math:`K^T Z g` follow from one
+  stacked matrix on the stacked wrenches.
+- *Answer.* Joint torsors, body twists and contact images are stacked maps of x; the contact
+  forces and the statics residual are vectorised over contacts.
+- *Indeterminacy.* The motions along which the optimum is not unique depend only on which
+  contacts carry load (:meth:`PreparedGeometry.flat_directions`), so they are memoised per set.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import LoadError
+from ..model.loads import Gravity, PointForce, Torque
+from ..numerics import cross, norm
+from .reduction import (
+    ROUND_OFF_WORK,
+    UNBOUNDED_FRACTION,
+    ReducedGeometry,
+    describe_motion,
+    with_scaled_load,
+)
+from .small_displacement import SmallDisplacementMaps, null_space
+
+
+class PreparedGeometry:
+    """The reduced geometry of a mechanism at one configuration, ready for many loads.
+
+    Attributes:
+        configuration: the closed nominal configuration.
+        maps: linear maps at that configuration.
+        geometry: the load-independent reduction (:class:`~.reduction.ReducedGeometry`).
+        signature: sizes and contact shapes (what a built optimiser depends on).
+    """
+
+    def __init__(self, mechanism, configuration, maps: SmallDisplacementMaps, geometry):
+        geometry: ReducedGeometry
+        model = mechanism.model
+        self.mechanism = mechanism
+        self.configuration = configuration
+        self.maps = maps
+        self.geometry = geometry
+        self.length = mechanism.length_scale()
+        self.signature = (
+            geometry.basis.shape[1],
+            tuple((c.contact.shape, c.rows.shape[0]) for c in geometry.contacts),
+        )
+        n, bodies = maps.size, model.njoints
+        scale = geometry.scale
+        self.size_x = n
+        # rows: scaled gradient Z g (n), reduced Q^T Z g (r), along the unblocked motions (f)
+        scaled = -scale[:, None] * np.hstack([maps.body_twist[b].T for b in range(bodies)])
+        self._load_rows = np.vstack(
+            [scaled, geometry.basis.T @ scaled, geometry.free_scaled.T @ scaled]
+        )
+        self._split = (n, n + geometry.basis.shape[1])
+        self.play = float(np.median(scale)) if scale.size else 0.0
+        # the whole load on the clearance scale: sum_b |F_b| c + |M_b| c / L (c: median scale)
+        self._size_weights = np.array([self.play, self.play / max(self.length, 1e-300)])
+        self._frames = {}
+        for link, frame_id in mechanism.link_frames.items():
+            placement = configuration.oMf[frame_id]
+            body = model.frames[frame_id].parentJoint
+            self._frames[link] = (body, placement.rotation.copy(), placement.translation.copy())
+        # gravity: W_b = (m a, c_b x m a) = Gm_b a, stacked (6 * bodies, 3)
+        self._gravity = np.zeros((bodies, 6, 3))
+        for body in range(1, bodies):
+            inertia = model.inertias[body]
+            if inertia.mass > 0.0:
+                centre = configuration.oMi[body].act(inertia.lever)
+                self._gravity[body, :3] = inertia.mass * np.eye(3)
+                self._gravity[body, 3:] = inertia.mass * pin.skew(centre)
+        self._gravity = self._gravity.reshape(6 * bodies, 3)
+        self.bodies = bodies
+        # answer maps
+        self.x_from_y = scale[:, None] * geometry.basis
+        self.joint_names = tuple(mechanism.joints)
+        self._torsor_rows = np.vstack([maps.joint_torsor[name] for name in self.joint_names])
+        self._twist_rows = np.vstack(maps.body_twist)
+        self._origins = np.array([m.translation for m in configuration.oMi])
+        contacts = geometry.contacts
+        self._contact_rows = np.vstack([c.rows for c in contacts]) if contacts else np.zeros((0, n))
+        self.bounds = np.array([c.contact.bound for c in contacts])
+        self._contact_of_row = geometry.stack.row_contact
+        self._starts = geometry.stack.starts
+        self._is_norm = geometry.stack.is_norm
+        self._scatter = np.array(
+            [3 * j + k for j, c in enumerate(contacts) for k in c.contact.components], dtype=int
+        )
+        row_bounds = self.bounds[self._contact_of_row]
+        row_is_norm = self._is_norm[self._contact_of_row]
+        self._norm_force = np.where(row_is_norm, -2.0 / row_bounds**2, 0.0)
+        self._slab_force = np.where(row_is_norm, 0.0, -1.0 / row_bounds)
+        reactions = geometry.equalities.T * scale[:, None]
+        self._reactions = _column_basis(reactions)
+        self._flat: dict[bytes, tuple[np.ndarray, tuple[str, ...]]] = {}
+
+    # -- loads ---------------------------------------------------------------------------------
+    def wrenches(self, loads) -> np.ndarray:
+        """Body wrenches at the world origin (bodies, 6) [N, N m] of ``loads`` (ground excluded)."""
+        wrench = np.zeros((self.bodies, 6))
+        for load in loads:
+            if isinstance(load, Gravity):
+                wrench += (self._gravity @ load.acceleration).reshape(self.bodies, 6)
+                continue
+            entry = self._frames.get(load.link)
+            if entry is None:
+                known = ", ".join(sorted(self._frames))
+                raise LoadError(
+                    f"on {load.link!r}", f"unknown link; the model's links are: {known}"
+                )
+            body, rotation, translation = entry
+            if isinstance(load, PointForce):
+                point = rotation @ load.point + translation
+                wrench[body, :3] += load.force
+                wrench[body, 3:] += cross(point, load.force)
+            elif isinstance(load, Torque):
+                wrench[body, 3:] += load.torque
+        wrench[0] = 0.0  # a load on the fixed ground does no work
+        return wrench
+
+    def problem(self, loads):
+        """The reduced problem of ``loads`` (raises UnboundedLoadError, see
+        :func:`~.reduction.with_scaled_load`)."""
+        wrench = self.wrenches(loads)
+        stacked = self._load_rows @ wrench.ravel()
+        first, second = self._split
+        halves = np.sqrt((wrench * wrench).reshape(-1, 2, 3).sum(axis=2))  # |F_b|, |M_b|
+        size = float(np.dot(halves.sum(axis=0), self._size_weights))
+        return with_scaled_load(
+            self.geometry,
+            stacked[:first],
+            stacked[first:second],
+            stacked[second:],
+            self.maps,
+            self.mechanism.joints,
+            self.length,
+            size,
+        )
+
+    def objectives(self, wrenches: np.ndarray):
+        """The objectives of many loads at once, from their stacked body wrenches (N, 6 bodies).
+
+        Returns:
+            (objectives f (N, r), objective scales sigma (N,), x-space gradients g (N, n),
+            regular (N,): False where the load works on an unblocked motion or on none; those
+            cases are left to a single solve, which raises or reports them).
+        """
+        stacked = wrenches @ self._load_rows.T
+        first, second = self._split
+        scaled, reduced, along_free = (
+            stacked[:, :first],
+            stacked[:, first:second],
+            stacked[:, second:],
+        )
+        per_body = wrenches.reshape(len(wrenches), self.bodies, 2, 3)
+        sizes = np.linalg.norm(per_body, axis=3)
+        load_sizes = self.play * (
+            sizes[:, :, 0].sum(axis=1) + sizes[:, :, 1].sum(axis=1) / max(self.length, 1e-300)
+        )
+        references = np.maximum(np.linalg.norm(scaled, axis=1), load_sizes)
+        free_sizes = (
+            np.linalg.norm(along_free, axis=1) if along_free.shape[1] else np.zeros(len(scaled))
+        )
+        sigmas = np.linalg.norm(reduced, axis=1)
+        regular = (free_sizes <= UNBOUNDED_FRACTION * references) & (
+            sigmas > ROUND_OFF_WORK * references
+        )
+        objectives = reduced / np.where(sigmas > 0.0, sigmas, 1.0)[:, None]
+        return objectives, sigmas, scaled / self.geometry.scale, regular
+
+    # -- answer --------------------------------------------------------------------------------
+    def torsor_array(self, x: np.ndarray) -> np.ndarray:
+        """Torsor (6,) [m, rad] of every joint of ``joint_names`` for the unknowns x, (joints, 6)."""
+        return (self._torsor_rows @ x).reshape(-1, 6)
+
+    def body_twists(self, x: np.ndarray) -> np.ndarray:
+        """Spatial twist (v, omega) at the world origin of every body, (bodies, 6)."""
+        return (self._twist_rows @ x).reshape(self.bodies, 6)
+
+    def body_motions(self, twists: np.ndarray, names) -> dict:
+        """Body name -> (translation of its frame origin [m], rotation [rad]), world axes."""
+        w, p = twists[:, 3:], self._origins
+        moved = twists[:, :3] + np.stack(
+            (
+                w[:, 1] * p[:, 2] - w[:, 2] * p[:, 1],
+                w[:, 2] * p[:, 0] - w[:, 0] * p[:, 2],
+                w[:, 0] * p[:, 1] - w[:, 1] * p[:, 0],
+            ),
+            axis=1,
+        )
+        return {names[i]: (moved[i], twists[i, 3:]) for i in range(1, self.bodies)}
+
+    def contact_state(self, x: np.ndarray, multipliers, signs, objective_scale: float):
+        r"""Gap of every contact [m], and the contact forces [N] (clearance frame) as rows stacked
+        like the contact rows.
+
+        Forces: a ball or disc pushes back along its image, :math:`f = -2\sigma\lambda_j
+        (S_j x) / c_j^2`; a slab side :math:`f = -\sigma\lambda_j s_j / c_j`.
+        """
+        image = np.dot(self._contact_rows, x)
+        if not image.size:
+            return np.zeros(0), image
+        # a slab has one row, so |s^T x| is the root of its sum of squares too
+        gaps = self.bounds - np.sqrt(np.add.reduceat(image * image, self._starts))
+        row = self._contact_of_row
+        forces = (objective_scale * multipliers[row]) * (
+            self._norm_force * image + self._slab_force * signs[row]
+        )
+        return gaps, forces
+
+    def statics_residual(
+        self, gradient: np.ndarray, forces: np.ndarray, load_size: float = 0.0
+    ) -> float:
+        r"""Relative virtual-work residual :math:`\|P_\perp Z (g - \sum_j S_j^T f_j)\| / \|Z g\|`,
+        :math:`P_\perp` removing the rigid reactions of the loop closure (range of :math:`Z E^T`).
+
+        The reference is the larger of :math:`\|Z g\|` and ``load_size`` (the whole load on the
+        clearance scale): a load through a pivot leaves a round-off g that is no imbalance."""
+        scale = self.geometry.scale
+        scaled = scale * (gradient - self._contact_rows.T @ forces)
+        if self._reactions.shape[1]:
+            scaled = scaled - self._reactions @ (self._reactions.T @ scaled)
+        reference = max(norm(scale * gradient), load_size)
+        return norm(scaled) / reference if reference > 0.0 else 0.0
+
+    def contact_forces(self, forces: np.ndarray) -> np.ndarray:
+        """Stacked force rows -> one (3,) force per contact in its clearance frame, (m, 3)."""
+        out = np.zeros(3 * len(self._starts))
+        out[self._scatter] = forces
+        return out.reshape(-1, 3)
+
+    def flat_directions(self, loaded: np.ndarray) -> tuple[np.ndarray, tuple[str, ...]]:
+        r"""Directions (r, k) along which the optimum is not unique, with their descriptions.
+
+        With the set A of loaded contacts, a direction d with :math:`P_j d = 0` for every j in A
+        keeps each contact (:math:`G_A d = 0`) and sees no curvature
+        (:math:`\nabla^2 L\, d = \sum_A 2\lambda_j P_j^T P_j d = 0`): the load does not see it.
+        These are the null space of the rows of A, whatever y and the multipliers' values.
+        """
+        key = loaded.tobytes()
+        cached = self._flat.get(key)
+        if cached is None:
+            stack = self.geometry.stack
+            rows = stack.matrix[np.isin(stack.row_contact, loaded)]
+            flat = (
+                null_space(rows / max(1.0, float(np.abs(rows).max())), rtol=1e-9)
+                if rows.size
+                else np.eye(stack.size)
+            )
+            descriptions = tuple(
+                "bounded but not loaded (the optimum is not unique; minimum-norm point returned): "
+                + "; ".join(
+                    describe_motion(
+                        self.maps, self.mechanism.joints, self.x_from_y @ flat[:, i], self.length
+                    )
+                )
+                for i in range(flat.shape[1])
+            )
+            cached = self._flat[key] = (flat, descriptions)
+        return cached
+
+
+class LazyMapping(Mapping):
+    """A read-only mapping computed by ``compute()`` on first access (for answers a caller
+    rarely reads, such as every body's motion after each of thousands of re-solves)."""
+
+    def __init__(self, compute):
+        self._compute = compute
+        self._value: dict | None = None
+
+    def _get(self) -> dict:
+        if self._value is None:
+            self._value = self._compute()
+        return self._value
+
+    def __getitem__(self, key):
+        return self._get()[key]
+
+    def __iter__(self):
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+    def __repr__(self) -> str:
+        return repr(self._get())
+
+
+class LazyPlacements(Sequence):
+    r"""World placements of every body at a linear solution, :math:`\exp(\xi_b)\, oM_{b0}`,
+    computed on first access (a planner re-solving thousands of loads rarely reads them)."""
+
+    def __init__(self, twists: np.ndarray, nominal: tuple):
+        self._twists = twists
+        self._nominal = nominal
+        self._placements: tuple | None = None
+
+    def _compute(self) -> tuple:
+        if self._placements is None:
+            moved = [
+                pin.exp6(pin.Motion(self._twists[i])) * self._nominal[i]
+                for i in range(1, len(self._nominal))
+            ]
+            self._placements = (self._nominal[0], *moved)
+        return self._placements
+
+    def __len__(self) -> int:
+        return len(self._nominal)
+
+    def __getitem__(self, index):
+        return self._compute()[index]
+
+    def __repr__(self) -> str:
+        return repr(self._compute())
+
+
+def _column_basis(matrix: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of the column space of ``matrix`` (n, m), rank as numpy.linalg.lstsq
+    decides it (singular values above eps * max(n, m) of the largest)."""
+    if matrix.size == 0:
+        return np.zeros((matrix.shape[0], 0))
+    u, s, _ = np.linalg.svd(matrix, full_matrices=False)
+    if s.size == 0 or s[0] == 0.0:
+        return np.zeros((matrix.shape[0], 0))
+    rank = int(np.sum(s > np.finfo(float).eps * max(matrix.shape) * s[0]))
+    return u[:, :rank].copy()
