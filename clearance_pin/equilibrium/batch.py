@@ -12,14 +12,16 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from concurrent.futures import Executor
-from dataclasses import replace
 
 import numpy as np
 
 from ..errors import ClearancePinError
 from ..progress import Progress
 from .batch_newton import batched_newton
+from .cone_solver import acceptance
 from .kkt import UNLOADED
+from .reduction import ReducedProblem
+from .result import FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
 
 BATCH_MINIMUM = 16
 RESIDUAL_NAMES = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
@@ -213,7 +215,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         )
     except ClearancePinError:
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
-    objectives, sigmas, gradients, regular = prepared.objectives(wrenches)
+    objectives, sigmas, gradients, load_sizes, regular = prepared.objectives(wrenches)
     items: list = [None] * len(cases)
     items[0] = first
     pending = np.flatnonzero(regular)
@@ -225,19 +227,32 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         if seed is None or pending.size == 0:
             break
         y, multipliers, verified, table = batched_newton(
-            geometry.stack, objectives[pending], seed.y, seed.multipliers, seed.signs
+            geometry.stack,
+            objectives[pending],
+            seed.y,
+            seed.multipliers,
+            seed.signs,
+            accept=acceptance(geometry.conditioning),
         )
         y, verified = _minimum_norm(prepared, geometry.stack, seed, y, multipliers, verified)
+        x = y @ prepared.x_from_y.T
+        # the same independent checks as a single solve: statics in x, penetration
+        gaps, forces = prepared.contact_state(x, multipliers, seed.signs, sigmas[pending][:, None])
+        statics = prepared.statics_residual(gradients[pending], forces, load_sizes[pending])
+        violation = np.maximum(-gaps / prepared.bounds, 0.0).max(axis=1, initial=0.0)
+        verified &= (statics <= STATICS_TOLERANCE) & (violation <= FEASIBILITY_TOLERANCE)
         for k in np.flatnonzero(verified):
             i = pending[k]
-            problem = replace(
-                _problem_with_gradient(prepared, gradients[i]),
-                objective=objectives[i],
-                objective_scale=float(sigmas[i]),
+            items[i] = _lazy_item(
+                prepared,
+                (gradients[i], objectives[i], sigmas[i], load_sizes[i]),
+                y[k],
+                multipliers[k],
+                seed.signs,
+                table[k],
             )
-            items[i] = _lazy_item(prepared, problem, y[k], multipliers[k], seed.signs, table[k])
-            x_all[i] = prepared.x_from_y @ y[k]
-            batched[i] = True
+        x_all[pending[verified]] = x[verified]
+        batched[pending[verified]] = True
         bar.update(int(verified.sum()))
         pending = pending[~verified]
         if pending.size == 0:
@@ -261,10 +276,10 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     return EquilibriumBatch(items, {"x": x_all, "batched": batched, "torsor_maps": torsor_maps})
 
 
-def _problem_with_gradient(prepared, gradient: np.ndarray):
-    """A reduced problem of the prepared geometry carrying the x-space load gradient g."""
-    from .reduction import ReducedProblem
-
+def _problem_with_load(prepared, load) -> ReducedProblem:
+    """A reduced problem of the prepared geometry for one batched load case
+    (x-space gradient g, objective f, objective scale sigma, load size)."""
+    gradient, objective, sigma, load_size = load
     geometry = prepared.geometry
     return ReducedProblem(
         gradient,
@@ -274,11 +289,12 @@ def _problem_with_gradient(prepared, gradient: np.ndarray):
         geometry.equalities,
         geometry.free_motions,
         geometry.free_descriptions,
-        np.zeros(geometry.basis.shape[1]),
-        0.0,
+        objective,
+        float(sigma),
         geometry.contact_matrices,
         geometry.stack,
         geometry.conditioning,
+        float(load_size),
     )
 
 
@@ -300,13 +316,15 @@ def _minimum_norm(prepared, stack, seed, y, multipliers, verified):
     return y, verified
 
 
-def _lazy_item(prepared, problem, y, multipliers, signs, table):
-    from .solve import _assemble
+def _lazy_item(prepared, load, y, multipliers, signs, table):
+    """The Equilibrium of one batched case, assembled when first read."""
 
     def build():
+        from .solve import _assemble
+
         return _assemble(
             prepared,
-            problem,
+            _problem_with_load(prepared, load),
             y,
             multipliers,
             signs,

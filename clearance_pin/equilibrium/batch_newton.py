@@ -2,22 +2,23 @@ r"""The active-set Newton step of :mod:`.kkt` for many objectives at once (same 
 
 For N load cases of one mechanism at one configuration only the objective f changes. From one
 solved case (its contact set A, multipliers and slab sides) every case runs the same Newton
-iteration on stacked arrays,
+iteration on stacked arrays, with the same evaluation and proximal term as :func:`.kkt.newton`,
 
-.. math::  \begin{bmatrix} \sum_{j\in A} 2\lambda_j P_j^T P_j & G_A^T \\ G_A & 0 \end{bmatrix}
+.. math::  \begin{bmatrix} \sum_{j\in A} 2\lambda_j P_j^T P_j & G_A^T \\ G_A & -\epsilon I \end{bmatrix}
            \begin{bmatrix} \delta y \\ \delta\lambda \end{bmatrix} =
            -\begin{bmatrix} f + G_A^T \lambda \\ \phi_A(y) \end{bmatrix}
 
 (one batched linear solve per iteration). Each case is then verified on its own, exactly as a
-single solve is: multipliers >= 0, every contact feasible, KKT residual at round-off. Cases whose
-contact set differs fail the verification and are solved one by one by the caller.
+single solve is: multipliers >= 0, every contact feasible, KKT residual at round-off, and unique
+contact forces (independent active gradients; otherwise the single solve picks the minimum-norm
+forces). Cases that fail are solved by the caller in another group or one by one.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .kkt import ACCEPT_KKT, StackedContacts
+from .kkt import ACCEPT_KKT, POLISH_TOL, PROXIMAL, StackedContacts
 
 
 def batched_newton(
@@ -27,73 +28,87 @@ def batched_newton(
     multipliers0: np.ndarray,
     signs: np.ndarray,
     iterations: int = 8,
+    accept: float = ACCEPT_KKT,
 ):
     """Solve the KKT systems of the contact set of (y0, multipliers0) for every row of objectives.
 
     Args:
         objectives: f per case, (N, r).
         y0, multipliers0, signs: a verified solution of one case (its active set is used).
+        accept: KKT residual accepted (as the single solve's, grown by ill conditioning).
 
     Returns:
         (Y (N, r), multipliers (N, m), verified (N,) bool, residuals (N, 4): stationarity,
         feasibility, complementarity and dual infeasibility, as :func:`~.kkt.residuals`).
     """
-    count_cases = objectives.shape[0]
+    cases = objectives.shape[0]
     active = np.flatnonzero(multipliers0 > 0.0)
     size, count = stack.size, active.size
-    matrix = stack.matrix
-    y = np.repeat(y0[None, :], count_cases, axis=0)
-    lam = np.repeat(multipliers0[None, active], count_cases, axis=0)
-    kkt = np.zeros((count_cases, size + count, size + count))
-    row_weights = np.where(stack.row_is_norm, 1.0, 0.0)
-    for _ in range(iterations):
-        values, gradients = _evaluate(stack, y, signs)
-        gradients = gradients[:, active, :]
+    rows, starts, norm_rows, local, outer = stack.subset(active)
+    slab_signs = (1.0 - norm_rows) * signs[active][local]
+    twice_norm = 2.0 * norm_rows
+    value_weight = np.where(stack.is_norm[active], 0.5, 1.0)
+    twice_outer = 2.0 * outer
+    unknowns = np.empty((cases, size + count))
+    unknowns[:, :size] = y0
+    unknowns[:, size:] = multipliers0[active]
+    y, lam = unknowns[:, :size], unknowns[:, size:]
+    kkt = np.zeros((cases, size + count, size + count))
+    kkt[:, size:, size:] = -PROXIMAL * np.eye(count)
+    for _ in range(iterations + 1):
+        weight = twice_norm * (y @ rows.T) + slab_signs
+        gradients = np.add.reduceat(rows[None] * weight[:, :, None], starts, axis=1)
         residual = np.concatenate(
-            [objectives + np.einsum("nar,na->nr", gradients, lam), values[:, active]], axis=1
+            (
+                objectives + np.einsum("na,nar->nr", lam, gradients),
+                value_weight * np.einsum("nar,nr->na", gradients, y) - 1.0,
+            ),
+            axis=1,
         )
-        full = np.zeros((count_cases, stack.count))
-        full[:, active] = lam
-        lam_rows = 2.0 * full[:, stack.row_contact] * row_weights
-        kkt[:, :size, :size] = np.matmul(matrix.T[None] * lam_rows[:, None, :], matrix)
+        if np.abs(residual).max() < POLISH_TOL:
+            break
+        kkt[:, :size, :size] = (lam @ twice_outer).reshape(cases, size, size)
         kkt[:, :size, size:] = np.transpose(gradients, (0, 2, 1))
         kkt[:, size:, :size] = gradients
         try:
-            step = np.linalg.solve(kkt, -residual[..., None])[..., 0]
+            step = np.linalg.solve(kkt, residual[..., None])[..., 0]
         except np.linalg.LinAlgError:
-            step = np.einsum("nij,nj->ni", np.linalg.pinv(kkt), -residual)
-        step = np.where(np.isfinite(step), step, 0.0)
-        y += step[:, :size]
-        lam += step[:, size:]
-    multipliers = np.zeros((count_cases, stack.count))
-    multipliers[:, active] = lam
-    verified, table = _verify(stack, objectives, y, multipliers, signs)
-    return y, np.maximum(multipliers, 0.0), verified, table
+            step = np.einsum("nij,nj->ni", np.linalg.pinv(kkt), residual)
+        unknowns -= np.where(np.isfinite(step), step, 0.0)
+    multipliers = np.zeros((cases, stack.count))
+    multipliers[:, active] = _minimum_norm_forces(gradients, objectives, lam)
+    verified, table = _verify(stack, objectives, y, multipliers, signs, accept)
+    return y.copy(), np.maximum(multipliers, 0.0), verified, table
 
 
-def _evaluate(stack: StackedContacts, y: np.ndarray, signs: np.ndarray):
-    image = y @ stack.matrix.T
-    squares = np.add.reduceat(image * image, stack.starts, axis=1)
-    values = np.where(stack.is_norm, squares, signs * image[:, stack.starts]) - 1.0
-    weights = np.where(stack.row_is_norm, 2.0 * image, signs[stack.row_contact])
-    gradients = np.add.reduceat(
-        stack.matrix[None, :, :] * weights[:, :, None], stack.starts, axis=1
-    )
-    return values, gradients
+def _minimum_norm_forces(gradients, objectives, lam):
+    """Per case, as :func:`.kkt._minimum_norm_forces`: Newton's multipliers when the active
+    gradients are independent, else the minimum-norm ones when they are non-negative."""
+    count, size = gradients.shape[1:]
+    singular = np.linalg.svd(gradients, compute_uv=False)
+    unique = singular[:, -1] > 1e-10 * singular[:, 0] if count <= size else np.zeros(len(lam), bool)
+    if unique.all():
+        return lam
+    rcond = np.finfo(float).eps * max(count, size)  # as numpy.linalg.lstsq's default
+    transposed = np.transpose(gradients, (0, 2, 1))
+    least = np.einsum("nar,nr->na", np.linalg.pinv(transposed, rcond=rcond), -objectives)
+    use_least = ~unique & np.all(least >= -1e-14, axis=1)
+    return np.where(use_least[:, None], np.maximum(least, 0.0), lam)
 
 
-def _verify(stack: StackedContacts, objectives, y, multipliers, signs):
+def _verify(stack: StackedContacts, objectives, y, multipliers, signs, accept):
     image = y @ stack.matrix.T
     squares = np.add.reduceat(image * image, stack.starts, axis=1)
     phi = np.where(stack.is_norm, squares, np.abs(image[:, stack.starts])) - 1.0
-    _, gradients = _evaluate(stack, y, signs)
+    weights = np.where(stack.row_is_norm, 2.0 * image, signs[stack.row_contact])
+    gradients = np.add.reduceat(stack.matrix[None] * weights[:, :, None], stack.starts, axis=1)
     stationarity = np.abs(objectives + np.einsum("nmr,nm->nr", gradients, multipliers)).max(axis=1)
     feasibility = np.maximum(phi, 0.0).max(axis=1)
     complementarity = np.abs(multipliers * phi).max(axis=1)
     dual = np.maximum(-multipliers, 0.0).max(axis=1)
     table = np.stack([stationarity, feasibility, complementarity, dual], axis=1)
     verified = (
-        (table.max(axis=1) <= ACCEPT_KKT)
+        (table.max(axis=1) <= accept)
         & (multipliers.min(axis=1) >= -1e-12)
         & (phi.max(axis=1) <= 1e-13)
     )

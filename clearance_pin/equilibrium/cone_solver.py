@@ -242,12 +242,16 @@ def backend_for(problem: ReducedProblem, backend: str = "auto", tol: float = 1e-
     return built, True
 
 
+def acceptance(conditioning: float) -> float:
+    """KKT residual accepted: round-off grows as 1 / conditioning (a ConditioningWarning says so)."""
+    return max(ACCEPT_KKT, 1e-16 / max(conditioning, 1e-300))
+
+
 def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = None) -> ConeSolution:
     """Solve ``problem``: warm Newton if ``warm`` verifies, else the backend then the polish."""
     started = time.perf_counter()
     stack = problem.stack
-    # round-off in the KKT residual grows as 1 / conditioning (a ConditioningWarning says so)
-    accept = max(ACCEPT_KKT, 1e-16 / max(problem.conditioning, 1e-300))
+    accept = acceptance(problem.conditioning)
     if warm is not None and warm.y.shape == (problem.size,) and problem.size <= WARM_MAX_SIZE:
         verified = active_set_solve(
             stack,

@@ -23,7 +23,7 @@ import pinocchio as pin
 
 from ..errors import LoadError
 from ..model.loads import Gravity, PointForce, Torque
-from ..numerics import cross, norm
+from ..numerics import cross
 from .reduction import (
     ROUND_OFF_WORK,
     UNBOUNDED_FRACTION,
@@ -154,8 +154,9 @@ class PreparedGeometry:
 
         Returns:
             (objectives f (N, r), objective scales sigma (N,), x-space gradients g (N, n),
-            regular (N,): False where the load works on an unblocked motion or on none; those
-            cases are left to a single solve, which raises or reports them).
+            load sizes (N,) [J] (see :func:`~.reduction.with_scaled_load`), regular (N,): False
+            where the load works on an unblocked motion or on none; those cases are left to a
+            single solve, which raises or reports them).
         """
         stacked = wrenches @ self._load_rows.T
         first, second = self._split
@@ -178,7 +179,7 @@ class PreparedGeometry:
             sigmas > ROUND_OFF_WORK * references
         )
         objectives = reduced / np.where(sigmas > 0.0, sigmas, 1.0)[:, None]
-        return objectives, sigmas, scaled / self.geometry.scale, regular
+        return objectives, sigmas, scaled / self.geometry.scale, load_sizes, regular
 
     # -- answer --------------------------------------------------------------------------------
     def torsor_array(self, x: np.ndarray) -> np.ndarray:
@@ -202,38 +203,39 @@ class PreparedGeometry:
         )
         return {names[i]: (moved[i], twists[i, 3:]) for i in range(1, self.bodies)}
 
-    def contact_state(self, x: np.ndarray, multipliers, signs, objective_scale: float):
+    def contact_state(self, x: np.ndarray, multipliers, signs, objective_scale):
         r"""Gap of every contact [m], and the contact forces [N] (clearance frame) as rows stacked
-        like the contact rows.
+        like the contact rows; for one solution (x (n,), multipliers (m,), sigma) or many
+        (x (N, n), multipliers (N, m), sigma (N, 1)).
 
         Forces: a ball or disc pushes back along its image, :math:`f = -2\sigma\lambda_j
         (S_j x) / c_j^2`; a slab side :math:`f = -\sigma\lambda_j s_j / c_j`.
         """
-        image = np.dot(self._contact_rows, x)
-        if not image.size:
-            return np.zeros(0), image
+        image = x @ self._contact_rows.T
+        if not image.shape[-1]:
+            return image, image
         # a slab has one row, so |s^T x| is the root of its sum of squares too
-        gaps = self.bounds - np.sqrt(np.add.reduceat(image * image, self._starts))
+        gaps = self.bounds - np.sqrt(np.add.reduceat(image * image, self._starts, axis=-1))
         row = self._contact_of_row
-        forces = (objective_scale * multipliers[row]) * (
+        forces = (objective_scale * multipliers[..., row]) * (
             self._norm_force * image + self._slab_force * signs[row]
         )
         return gaps, forces
 
-    def statics_residual(
-        self, gradient: np.ndarray, forces: np.ndarray, load_size: float = 0.0
-    ) -> float:
+    def statics_residual(self, gradient: np.ndarray, forces: np.ndarray, load_size=0.0):
         r"""Relative virtual-work residual :math:`\|P_\perp Z (g - \sum_j S_j^T f_j)\| / \|Z g\|`,
-        :math:`P_\perp` removing the rigid reactions of the loop closure (range of :math:`Z E^T`).
+        :math:`P_\perp` removing the rigid reactions of the loop closure (range of :math:`Z E^T`);
+        for one load (g (n,), forces (k,)) or many ((N, n), (N, k), load_size (N,)).
 
         The reference is the larger of :math:`\|Z g\|` and ``load_size`` (the whole load on the
         clearance scale): a load through a pivot leaves a round-off g that is no imbalance."""
         scale = self.geometry.scale
-        scaled = scale * (gradient - self._contact_rows.T @ forces)
+        scaled = scale * (gradient - forces @ self._contact_rows)
         if self._reactions.shape[1]:
-            scaled = scaled - self._reactions @ (self._reactions.T @ scaled)
-        reference = max(norm(scale * gradient), load_size)
-        return norm(scaled) / reference if reference > 0.0 else 0.0
+            scaled = scaled - (scaled @ self._reactions) @ self._reactions.T
+        reference = np.maximum(np.sqrt(((scale * gradient) ** 2).sum(axis=-1)), load_size)
+        residual = np.sqrt((scaled * scaled).sum(axis=-1)) / np.where(reference > 0, reference, 1)
+        return float(residual) if np.ndim(residual) == 0 else residual
 
     def contact_forces(self, forces: np.ndarray) -> np.ndarray:
         """Stacked force rows -> one (3,) force per contact in its clearance frame, (m, 3)."""
