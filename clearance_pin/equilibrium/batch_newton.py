@@ -44,10 +44,9 @@ def batched_newton(
     cases = objectives.shape[0]
     active = np.flatnonzero(multipliers0 > 0.0)
     size, count = stack.size, active.size
-    rows, starts, norm_rows, local, outer = stack.subset(active)
+    rows, starts, norm_rows, local, outer, _ = stack.subset(active)
     slab_signs = (1.0 - norm_rows) * signs[active][local]
     twice_norm = 2.0 * norm_rows
-    value_weight = np.where(stack.is_norm[active], 0.5, 1.0)
     twice_outer = 2.0 * outer
     unknowns = np.empty((cases, size + count))
     unknowns[:, :size] = y0
@@ -56,14 +55,12 @@ def batched_newton(
     kkt = np.zeros((cases, size + count, size + count))
     kkt[:, size:, size:] = -PROXIMAL * np.eye(count)
     for _ in range(iterations + 1):
-        weight = twice_norm * (y @ rows.T) + slab_signs
+        image = y @ rows.T
+        weight = twice_norm * image + slab_signs
         gradients = np.add.reduceat(rows[None] * weight[:, :, None], starts, axis=1)
+        values = np.add.reduceat(image * (weight - norm_rows * image), starts, axis=1) - 1.0
         residual = np.concatenate(
-            (
-                objectives + np.einsum("na,nar->nr", lam, gradients),
-                value_weight * np.einsum("nar,nr->na", gradients, y) - 1.0,
-            ),
-            axis=1,
+            (objectives + np.einsum("na,nar->nr", lam, gradients), values), axis=1
         )
         if np.abs(residual).max() < POLISH_TOL:
             break

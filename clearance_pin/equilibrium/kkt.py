@@ -48,18 +48,20 @@ class StackedContacts:
         self.is_norm = np.array([s == "norm" for s in shapes], dtype=bool)
         self.row_contact = np.repeat(np.arange(self.count), lengths)
         self.row_is_norm = self.is_norm[self.row_contact] if self.count else np.zeros(0, bool)
-        # Hessian blocks O_j = P_j^T P_j of the balls and discs (zero for slabs)
-        self.outer = np.zeros((self.count, size, size))
-        for j, m in enumerate(matrices):
-            if self.is_norm[j]:
-                self.outer[j] = m.T @ m
-        self._subsets: dict[bytes, tuple] = {}
+        # Hessian blocks O_j = P_j^T P_j of the balls and discs (zero for slabs), formed for the
+        # contacts of an active set when first needed (see subset)
+        self._matrices = matrices
+        self._subsets: dict[tuple, tuple] = {}
+        # active sets whose KKT matrix Newton factorised without trouble: no motion escapes them
+        self.nonsingular: set[bytes] = set()
 
-    def subset(self, active: np.ndarray) -> tuple:
+    def subset(self, active: np.ndarray, projected: bool = False) -> tuple:
         """Rows of the contacts ``active`` (memoised): (P_A, first row of each contact in P_A,
         per row 1.0 for a ball or disc row and 0.0 for a slab row, per row its index in
-        ``active``, O_A flattened to (a, r * r))."""
-        key = active.tobytes()
+        ``active``, O_A flattened to (a, r * r), and R). With ``projected``, R is the orthonormal
+        basis (r, s) of the motions the contacts of A see (one SVD), None when they see every
+        motion, and O_A is projected, R^T O_j R flattened to (a, s * s); else R is None."""
+        key = (active.tobytes(), projected)
         cached = self._subsets.get(key)
         if cached is None:
             rows = (
@@ -69,16 +71,44 @@ class StackedContacts:
             )
             local = np.searchsorted(active, self.row_contact[rows])
             starts = np.flatnonzero(np.r_[True, local[1:] != local[:-1]]) if rows.size else rows
+            seen, flat = self.split(active) if projected else (None, np.zeros((self.size, 0)))
+            outer = self.hessian_blocks(active)
+            if flat.shape[1]:
+                outer = seen.T @ outer @ seen
+            else:
+                seen = None
             cached = (
                 self.matrix[rows],
                 starts,
                 self.row_is_norm[rows].astype(float),
                 local,
-                self.outer[active].reshape(active.size, -1),
+                outer.reshape(active.size, -1),
+                seen,
             )
             if len(self._subsets) < 256:
                 self._subsets[key] = cached
         return cached
+
+    def hessian_blocks(self, contacts: np.ndarray) -> np.ndarray:
+        """O_j = P_j^T P_j of each of ``contacts`` (zero for a slab), (a, r, r)."""
+        blocks = np.zeros((len(contacts), self.size, self.size))
+        for k, j in enumerate(contacts):
+            if self.is_norm[j]:
+                blocks[k] = self._matrices[j].T @ self._matrices[j]
+        return blocks
+
+    def split(self, contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        r"""Orthonormal bases (r, s) and (r, r - s) of the motions the ``contacts`` see and of
+        those they do not (:math:`P_j d = 0` for every j): along the latter neither the
+        contacts' gradients nor the Hessian change, so the optimum is flat there."""
+        rows = self.matrix[np.isin(self.row_contact, contacts)]
+        if not rows.size:
+            return np.zeros((self.size, 0)), np.eye(self.size)
+        _, singular, vt = np.linalg.svd(
+            rows / max(1.0, float(np.abs(rows).max())), full_matrices=rows.shape[0] < self.size
+        )
+        rank = int(np.sum(singular > 1e-9 * singular[0])) if singular[0] > 0.0 else 0
+        return vt[:rank].T.copy(), vt[rank:].T.copy()
 
     def values(self, y: np.ndarray, signs: np.ndarray) -> np.ndarray:
         """phi_j(y) for every contact (slabs on their side ``signs``; |.| if signs is None)."""
@@ -135,58 +165,123 @@ def newton(
     active,
     iterations: int = 12,
     accept: float = ACCEPT_KKT,
+    projected: bool = False,
 ):
     r"""Newton on the KKT system of ``active``; returns (y, lambda_active, G_A) or None.
 
-    Gradients come from the images :math:`P_A y` (accurate to round-off of :math:`\|P\|\|y\|`):
-    :math:`G_j = \sum_{i \in j} w_i P_i` with :math:`w_i = 2 (P y)_i` (ball, disc) or
-    :math:`s_j` (slab), and :math:`\phi_j = \tfrac12 G_j^T y - 1` (ball, disc) or
-    :math:`G_j^T y - 1` (slab); the Hessian :math:`2 \sum_A \lambda_j P_j^T P_j` comes from the
-    stored blocks. This runs once per re-solve, so it is written for few array operations.
+    When a step meets a singular KKT matrix, Newton starts again with ``projected``: the steps are
+    taken in the motions the contacts of the set see (the others leave every gradient and the
+    Hessian unchanged, so y is not unique along them), and a still singular matrix (redundant
+    contacts) is solved by least squares.
+
+    Values and gradients come from the images :math:`v = P_A y` (accurate to round-off of
+    :math:`\|P\|\|y\|`): :math:`\phi_j = \sum_{i \in j} v_i^2 - 1` (ball, disc) or
+    :math:`s_j v_i - 1` (slab), :math:`G_j = \sum_{i \in j} w_i P_i` with :math:`w_i = 2 v_i` or
+    :math:`s_j`; the Hessian :math:`2 \sum_A \lambda_j P_j^T P_j` comes from the stored blocks.
+    This runs once per re-solve, so it is written for few array operations.
     """
     size, count = stack.size, active.size
-    rows, starts, norm_rows, local, outer = stack.subset(active)
+    rows, starts, norm_rows, local, outer, seen = stack.subset(active, projected)
+    start_y, start_multipliers = y, multipliers
     slab_signs = (1.0 - norm_rows) * signs[active][local]
     twice_norm = 2.0 * norm_rows
-    value_weight = np.where(stack.is_norm[active], 0.5, 1.0)
+    value_shift = norm_rows  # image * (weight - image) = image^2 (ball, disc), s image (slab)
     twice_outer = 2.0 * outer
-    kkt = np.empty((size + count, size + count))
+    # motions no contact of the set sees make the KKT matrix singular (y not unique there):
+    # the step is taken in the motions they see, R (the caller centres the flat part)
+    steps = size if seen is None else seen.shape[1]
+    kkt = np.empty((steps + count, steps + count))
     # proximal term on the multipliers: redundant contacts sharing a load make the KKT matrix
     # singular (forces not unique); this keeps them bounded and leaves y's solution exact
-    kkt[size:, size:] = -PROXIMAL * np.eye(count)
+    kkt[steps:, steps:] = -PROXIMAL * np.eye(count)
     unknowns = np.concatenate((y, multipliers[active]))
     y, lam = unknowns[:size], unknowns[size:]  # views: one update moves both
     converged = POLISH_TOL * POLISH_TOL
     for iteration in range(iterations + 1):
-        weight = twice_norm * np.dot(rows, y) + slab_signs
+        image = np.dot(rows, y)
+        weight = twice_norm * image + slab_signs
         gradients = np.add.reduceat(rows * weight[:, None], starts)
-        residual = np.concatenate(
-            (objective + np.dot(lam, gradients), value_weight * np.dot(gradients, y) - 1.0)
-        )
+        # phi from the images, not from G y: the rows may be large and cancel
+        values = np.add.reduceat(image * (weight - value_shift * image), starts) - 1.0
+        residual = np.concatenate((objective + np.dot(lam, gradients), values))
         size_now = np.dot(residual, residual)
         if size_now < converged:
+            if not projected:
+                stack.nonsingular.add(active.tobytes())
             return y.copy(), lam.copy(), gradients
         if iteration == iterations or (iteration >= 6 and size_now > 1e-8):
             break  # quadratic convergence did not set in: a wrong active set, give up early
-        kkt[:size, :size] = np.dot(lam, twice_outer).reshape(size, size)
-        kkt[:size, size:] = gradients.T
-        kkt[size:, :size] = gradients
-        step = _kkt_step(kkt, residual)
+        kkt[:steps, :steps] = np.dot(lam, twice_outer).reshape(steps, steps)
+        if seen is None:
+            kkt[:steps, steps:] = gradients.T
+            kkt[steps:, :steps] = gradients
+            step = _lu_step(kkt, residual, size_now)
+            if step is None and np.abs(residual).max() <= accept:
+                return y.copy(), lam.copy(), gradients  # verified already; K is singular
+            if step is None and not projected:
+                return newton(
+                    stack,
+                    objective,
+                    start_y,
+                    start_multipliers,
+                    signs,
+                    active,
+                    iterations,
+                    accept,
+                    projected=True,
+                )
+            step = _least_squares_step(kkt, residual) if step is None else step
+            if step is None:
+                return None
+            unknowns -= step
+            continue
+        seen_gradients = np.dot(gradients, seen)
+        kkt[:steps, steps:] = seen_gradients.T
+        kkt[steps:, :steps] = seen_gradients
+        reduced = np.concatenate((np.dot(residual[:size], seen), residual[size:]))
+        step = _lu_step(kkt, reduced, np.dot(reduced, reduced))
+        step = _least_squares_step(kkt, reduced) if step is None else step
         if step is None:
             return None
-        unknowns -= step
+        y -= np.dot(seen, step[:steps])
+        lam -= step[steps:]
     if np.abs(residual).max() <= accept:
         return y.copy(), lam.copy(), gradients
+    if not projected:  # a nearly singular KKT matrix can pass LU with a wrong step
+        return newton(
+            stack,
+            objective,
+            start_y,
+            start_multipliers,
+            signs,
+            active,
+            iterations,
+            accept,
+            projected=True,
+        )
     return None
 
 
-def _kkt_step(kkt: np.ndarray, residual: np.ndarray):
-    """Newton step :math:`K^{-1} r` (subtract it), by LU; by least squares when the KKT matrix is
-    singular (redundant contacts sharing the load, so the multipliers are not unique: LU then
-    returns a huge, wrong step)."""
+def _lu_step(kkt: np.ndarray, residual: np.ndarray, squared: float):
+    """Newton step :math:`K^{-1} r` (to subtract) by LU; None when K is singular (LU then fails
+    or returns a huge, wrong step). ``squared``: r^T r."""
     step = _lu_solve(kkt, residual)
-    if step is not None and np.dot(step, step) < 1e12:  # NaN fails the test
-        return step
+    if step is None:
+        return None
+    size = np.dot(step, step)
+    # NaN fails both tests; a step 1e10 times the residual means K is singular to round-off
+    # (a motion no contact of the set sees), not that the answer is that far
+    if not (size < 1e12 and size <= 1e20 * squared):
+        return None
+    # a nearly singular K (redundant contacts) gives a step that does not solve K s = r to
+    # round-off: refuse it, so that the caller takes the minimum-norm one
+    error = np.dot(kkt, step) - residual
+    return step if np.dot(error, error) <= 1e-18 * (1.0 + np.dot(residual, residual)) else None
+
+
+def _least_squares_step(kkt: np.ndarray, residual: np.ndarray):
+    """Minimum-norm least-squares Newton step for a singular KKT matrix (redundant contacts
+    sharing the load: the multipliers are not unique)."""
     step = np.linalg.lstsq(kkt, residual, rcond=None)[0]
     return step if np.isfinite(step).all() else None
 

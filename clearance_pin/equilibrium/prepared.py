@@ -16,6 +16,7 @@ times, so every load-independent product is formed here, and a solve costs a few
 
 from __future__ import annotations
 
+import statistics
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -31,7 +32,7 @@ from .reduction import (
     describe_motion,
     with_scaled_load,
 )
-from .small_displacement import SmallDisplacementMaps, null_space
+from .small_displacement import SmallDisplacementMaps
 
 
 class PreparedGeometry:
@@ -65,7 +66,7 @@ class PreparedGeometry:
             [scaled, geometry.basis.T @ scaled, geometry.free_scaled.T @ scaled]
         )
         self._split = (n, n + geometry.basis.shape[1])
-        self.play = float(np.median(scale)) if scale.size else 0.0
+        self.play = float(statistics.median(scale.tolist())) if scale.size else 0.0
         # the whole load on the clearance scale: sum_b |F_b| c + |M_b| c / L (c: median scale)
         self._size_weights = np.array([self.play, self.play / max(self.length, 1e-300)])
         self._frames = {}
@@ -104,7 +105,7 @@ class PreparedGeometry:
         self._slab_force = np.where(row_is_norm, 0.0, -1.0 / row_bounds)
         reactions = geometry.equalities.T * scale[:, None]
         self._reactions = _column_basis(reactions)
-        self._flat: dict[bytes, tuple[np.ndarray, tuple[str, ...]]] = {}
+        self._flat: dict[bytes, tuple] = {}
 
     # -- loads ---------------------------------------------------------------------------------
     def wrenches(self, loads) -> np.ndarray:
@@ -243,7 +244,7 @@ class PreparedGeometry:
         out[self._scatter] = forces
         return out.reshape(-1, 3)
 
-    def flat_directions(self, loaded: np.ndarray) -> tuple[np.ndarray, tuple[str, ...]]:
+    def flat_directions(self, loaded: np.ndarray) -> tuple[np.ndarray, LazySequence]:
         r"""Directions (r, k) along which the optimum is not unique, with their descriptions.
 
         With the set A of loaded contacts, a direction d with :math:`P_j d = 0` for every j in A
@@ -255,20 +256,23 @@ class PreparedGeometry:
         cached = self._flat.get(key)
         if cached is None:
             stack = self.geometry.stack
-            rows = stack.matrix[np.isin(stack.row_contact, loaded)]
-            flat = (
-                null_space(rows / max(1.0, float(np.abs(rows).max())), rtol=1e-9)
-                if rows.size
-                else np.eye(stack.size)
-            )
-            descriptions = tuple(
-                "bounded but not loaded (the optimum is not unique; minimum-norm point returned): "
-                + "; ".join(
-                    describe_motion(
-                        self.maps, self.mechanism.joints, self.x_from_y @ flat[:, i], self.length
+            # Newton factorised the KKT matrix of this set: no motion escapes it (a flat d would
+            # give K (d, 0) = 0), whatever y; otherwise one SVD of the set's rows decides
+            flat = np.zeros((stack.size, 0)) if key in stack.nonsingular else stack.split(loaded)[1]
+            descriptions = LazySequence(
+                lambda: (
+                    "bounded but not loaded (the optimum is not unique; minimum-norm point "
+                    "returned): "
+                    + "; ".join(
+                        describe_motion(
+                            self.maps,
+                            self.mechanism.joints,
+                            self.x_from_y @ flat[:, i],
+                            self.length,
+                        )
                     )
+                    for i in range(flat.shape[1])
                 )
-                for i in range(flat.shape[1])
             )
             cached = self._flat[key] = (flat, descriptions)
         return cached
@@ -300,32 +304,48 @@ class LazyMapping(Mapping):
         return repr(self._get())
 
 
-class LazyPlacements(Sequence):
-    r"""World placements of every body at a linear solution, :math:`\exp(\xi_b)\, oM_{b0}`,
-    computed on first access (a planner re-solving thousands of loads rarely reads them)."""
+class LazySequence(Sequence):
+    """A read-only sequence computed by ``compute()`` on first access (world placements of every
+    body, descriptions of free motions: answers a planner re-solving thousands of times rarely
+    reads)."""
 
-    def __init__(self, twists: np.ndarray, nominal: tuple):
-        self._twists = twists
-        self._nominal = nominal
-        self._placements: tuple | None = None
+    def __init__(self, compute):
+        self._compute = compute
+        self._value: tuple | None = None
 
-    def _compute(self) -> tuple:
-        if self._placements is None:
-            moved = [
-                pin.exp6(pin.Motion(self._twists[i])) * self._nominal[i]
-                for i in range(1, len(self._nominal))
-            ]
-            self._placements = (self._nominal[0], *moved)
-        return self._placements
+    def _get(self) -> tuple:
+        if self._value is None:
+            self._value = tuple(self._compute())
+        return self._value
 
     def __len__(self) -> int:
-        return len(self._nominal)
+        return len(self._get())
 
     def __getitem__(self, index):
-        return self._compute()[index]
+        return self._get()[index]
+
+    def __eq__(self, other) -> bool:
+        return tuple(self) == tuple(other) if isinstance(other, Sequence) else NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self._get())
+
+    def __add__(self, other):
+        return LazySequence(lambda: (*self, *other))
 
     def __repr__(self) -> str:
-        return repr(self._compute())
+        return repr(self._get())
+
+
+def placements(twists: np.ndarray, nominal: tuple) -> LazySequence:
+    r"""World placements of every body at a linear solution, :math:`\exp(\xi_b)\, oM_{b0}`,
+    computed on first access."""
+    return LazySequence(
+        lambda: (
+            nominal[0],
+            *(pin.exp6(pin.Motion(twists[i])) * nominal[i] for i in range(1, len(nominal))),
+        )
+    )
 
 
 def _column_basis(matrix: np.ndarray) -> np.ndarray:

@@ -19,6 +19,8 @@ Reduction, in the scaled unknowns :math:`z = Z^{-1} x` (Z: clearance-sized scale
 
 from __future__ import annotations
 
+import statistics
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,7 +29,7 @@ from ..errors import UnboundedLoadError
 from ..model.clearance import COMPONENT_MEANING, COMPONENT_NAMES, ContactPoint
 from ..numerics import norm
 from .kkt import StackedContacts
-from .small_displacement import SmallDisplacementMaps, null_space
+from .small_displacement import SmallDisplacementMaps
 
 UNBOUNDED_FRACTION = 1e-9
 ROUND_OFF_WORK = 1e-12  # working part of a load below this share of the load is round-off
@@ -81,7 +83,7 @@ class ReducedProblem:
     contacts: tuple[ContactConstraint, ...]
     equalities: np.ndarray
     free_motions: np.ndarray
-    free_descriptions: tuple[str, ...]
+    free_descriptions: Sequence[str]
     objective: np.ndarray
     objective_scale: float
     contact_matrices: tuple[np.ndarray, ...]
@@ -116,26 +118,33 @@ class ReducedGeometry:
     equalities: np.ndarray
     free_motions: np.ndarray
     free_scaled: np.ndarray
-    free_descriptions: tuple[str, ...]
+    free_descriptions: Sequence[str]
     contact_matrices: tuple[np.ndarray, ...]
     stack: StackedContacts
     conditioning: float = 1.0
 
 
-def closure_conditioning(scaled_rows: np.ndarray, rtol: float = 1e-10) -> float:
-    """Smallest kept singular value of scaled constraint rows over the largest.
+def _split_rows(rows: np.ndarray, dimension: int, rtol: float = 1e-10):
+    """One SVD of ``rows`` (k, d): orthonormal bases of their null space (d, d - rank) and of its
+    complement (d, rank), and their conditioning: the smallest singular value above ``rtol`` of
+    the largest, over the largest.
 
-    Applied to the closure equations E Z and to the contact rows on the closed motions: 1 for a
-    well-posed mechanism; small near a toggle position, where the joints are about to allow a
-    motion that no contact sees (values below ``rtol`` count as such a motion and are eliminated).
+    Applied to the closure equations E Z and to the contact rows on the closed motions, the
+    conditioning is 1 for a well-posed mechanism and small near a toggle position, where the
+    joints are about to allow a motion that no contact sees (values below ``rtol`` count as such
+    a motion and are eliminated).
+
+    The rank counts singular values above ``rtol`` of the largest and above :data:`RANK_ATOL`
+    (the rows are normalised to their natural size, so round-off rows have rank 0).
     """
-    if scaled_rows.size == 0:
-        return 1.0
-    singular = np.linalg.svd(scaled_rows, compute_uv=False)
-    if singular[0] == 0.0:
-        return 1.0
+    if rows.size == 0:
+        return np.eye(dimension), np.zeros((dimension, 0)), 1.0
+    _, singular, vt = np.linalg.svd(rows, full_matrices=rows.shape[0] < dimension)
+    if singular.size == 0 or singular[0] == 0.0:
+        return np.eye(dimension), np.zeros((dimension, 0)), 1.0
+    rank = int(np.sum((singular > rtol * singular[0]) & (singular > RANK_ATOL)))
     kept = singular[singular > rtol * singular[0]]
-    return float(kept[-1] / singular[0])
+    return vt[rank:].T.copy(), vt[:rank].T.copy(), float(kept[-1] / singular[0])
 
 
 def reduce_geometry(
@@ -153,22 +162,27 @@ def reduce_geometry(
     scale = _variable_scales(maps, joints, contacts, length_scale)
     equalities = np.array(equality_rows, dtype=float).reshape(len(equality_rows), n)
     normalised = _normalised_equalities(maps, equalities, equality_joints, scale)
-    closure_basis = null_space(normalised, atol=RANK_ATOL) if equalities.size else np.eye(n)
-    conditioning = closure_conditioning(normalised)
+    closure_basis, _, conditioning = _split_rows(normalised, n)
     if contacts:
         contact_rows = np.vstack([c.rows / c.contact.bound for c in contacts]) * scale
-        seen = contact_rows @ closure_basis
-        free_w = null_space(seen, atol=RANK_ATOL)
-        conditioning = min(conditioning, closure_conditioning(seen))
+        free_w, seen_w, seen_conditioning = _split_rows(
+            contact_rows @ closure_basis, closure_basis.shape[1]
+        )
+        conditioning = min(conditioning, seen_conditioning)
     else:
         free_w = np.eye(closure_basis.shape[1])
+        seen_w = np.zeros((closure_basis.shape[1], 0))
     free_z = closure_basis @ free_w
-    basis = closure_basis @ _complement(free_w, closure_basis.shape[1])
+    basis = closure_basis @ seen_w
     matrices = tuple((c.rows * scale) @ basis / c.contact.bound for c in contacts)
     free_x = scale[:, None] * free_z
-    descriptions = tuple(
-        "; ".join(describe_motion(maps, joints, free_x[:, i], length_scale))
-        for i in range(free_x.shape[1])
+    from .prepared import LazySequence
+
+    descriptions = LazySequence(
+        lambda: (
+            "; ".join(describe_motion(maps, joints, free_x[:, i], length_scale))
+            for i in range(free_x.shape[1])
+        )
     )
     stack = StackedContacts(matrices, [c.contact.shape for c in contacts], basis.shape[1])
     return ReducedGeometry(
@@ -306,18 +320,11 @@ def _normalised_equalities(maps, equalities: np.ndarray, names: list[str], scale
 def _variable_scales(maps, joints, contacts, length_scale: float) -> np.ndarray:
     """Clearance-sized scale of every unknown: its joint's play [m], or play / L_ref [rad]."""
     bounds = [c.contact.bound for c in contacts]
-    reference = float(np.median(bounds)) if bounds else 1.0
+    reference = float(statistics.median(bounds)) if bounds else 1.0
     plays = np.array([joints[name].clearance.max_play or reference for name in maps.variable_joint])
     basis = np.array(maps.variable_basis).reshape(-1, 6)
     translational = np.abs(basis[:, :3]).sum(axis=1) >= np.abs(basis[:, 3:]).sum(axis=1)
     return np.where(translational, plays, reference / length_scale)
-
-
-def _complement(basis: np.ndarray, dimension: int) -> np.ndarray:
-    """Orthonormal basis of the orthogonal complement of ``basis`` (d, f) in R^d."""
-    if basis.shape[1] == 0:
-        return np.eye(dimension)
-    return null_space(basis.T)
 
 
 def describe_motion(

@@ -16,7 +16,7 @@ from ..errors import ConditioningWarning, SolverError
 from .cone_solver import backend_for, solve_cone
 from .kkt import UNLOADED
 from .load_terms import gather_body_loads
-from .prepared import LazyMapping, LazyPlacements, PreparedGeometry
+from .prepared import LazyMapping, PreparedGeometry, placements
 from .reduction import ReducedProblem, reduce_geometry
 from .result import Contact, Equilibrium
 from .small_displacement import build_maps
@@ -101,7 +101,7 @@ def solve_linear(
         if second.polished or second.kkt_residual < solution.kkt_residual:
             second.status = f"{solution.status}, unverified; then {second.status}"
             solution, built, built_now = second, fallback, fallback_built
-    flat_notes: tuple[str, ...] = ()
+    flat_notes = ()
     if solution.polished:
         mechanism._solve_state[warm_key] = solution
         largest = float(solution.multipliers.max(initial=0.0))
@@ -173,7 +173,7 @@ def _assemble(
     build_time,
     solve_time,
     residuals,
-    flat_notes: tuple[str, ...] = (),
+    flat_notes=(),
 ) -> Equilibrium:
     x = prepared.x_from_y @ y
     torsor_array = prepared.torsor_array(x)
@@ -215,7 +215,7 @@ def _assemble(
         build_time=build_time,
         solve_time=solve_time,
         polished=polished,
-        body_placements=LazyPlacements(twists, prepared.configuration.oMi),
+        body_placements=placements(twists, prepared.configuration.oMi),
         mechanism=mechanism,
         configuration=prepared.configuration,
         body_twists=twists,
