@@ -54,6 +54,9 @@ class StackedContacts:
         self._subsets: dict[tuple, tuple] = {}
         # active sets whose KKT matrix Newton factorised without trouble: no motion escapes them
         self.nonsingular: set[bytes] = set()
+        # active sets that needed the projected Newton; shared by the geometries of one structure
+        # (set by the caller), since which motions a set of contacts sees is structural
+        self.projection_hints: set[bytes] = set()
 
     def subset(self, active: np.ndarray, projected: bool = False) -> tuple:
         """Rows of the contacts ``active`` (memoised): (P_A, first row of each contact in P_A,
@@ -100,7 +103,14 @@ class StackedContacts:
     def split(self, contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r"""Orthonormal bases (r, s) and (r, r - s) of the motions the ``contacts`` see and of
         those they do not (:math:`P_j d = 0` for every j): along the latter neither the
-        contacts' gradients nor the Hessian change, so the optimum is flat there."""
+        contacts' gradients nor the Hessian change, so the optimum is flat there (memoised)."""
+        key = ("split", contacts.tobytes())
+        cached = self._subsets.get(key)
+        if cached is None:
+            cached = self._subsets[key] = self._split(contacts)
+        return cached
+
+    def _split(self, contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rows = self.matrix[np.isin(self.row_contact, contacts)]
         if not rows.size:
             return np.zeros((self.size, 0)), np.eye(self.size)
@@ -181,6 +191,8 @@ def newton(
     This runs once per re-solve, so it is written for few array operations.
     """
     size, count = stack.size, active.size
+    if not projected and active.tobytes() in stack.projection_hints:
+        projected = True
     rows, starts, norm_rows, local, outer, seen = stack.subset(active, projected)
     start_y, start_multipliers = y, multipliers
     slab_signs = (1.0 - norm_rows) * signs[active][local]
@@ -219,6 +231,7 @@ def newton(
             if step is None and np.abs(residual).max() <= accept:
                 return y.copy(), lam.copy(), gradients  # verified already; K is singular
             if step is None and not projected:
+                stack.projection_hints.add(active.tobytes())
                 return newton(
                     stack,
                     objective,

@@ -106,6 +106,9 @@ class PreparedGeometry:
         reactions = geometry.equalities.T * scale[:, None]
         self._reactions = _column_basis(reactions)
         self._flat: dict[bytes, tuple] = {}
+        geometry.stack.projection_hints = mechanism._solve_state.setdefault(
+            ("projection hints", self.signature), set()
+        )
 
     # -- loads ---------------------------------------------------------------------------------
     def wrenches(self, loads) -> np.ndarray:

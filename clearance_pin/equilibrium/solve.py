@@ -16,7 +16,7 @@ from ..errors import ConditioningWarning, SolverError
 from .cone_solver import backend_for, solve_cone
 from .kkt import UNLOADED
 from .load_terms import gather_body_loads
-from .prepared import LazyMapping, PreparedGeometry, placements
+from .prepared import LazyMapping, LazySequence, PreparedGeometry, placements
 from .reduction import ReducedProblem, reduce_geometry
 from .result import Contact, Equilibrium
 from .small_displacement import build_maps
@@ -184,10 +184,12 @@ def _assemble(
     active = (gaps <= ACTIVE_RELATIVE_GAP * bounds) | (
         (multipliers > 0.0) & (gaps <= 1e-6 * bounds)
     )
-    contacts = tuple(
-        Contact(c.joint, c.contact.name, float(gap), float(bound), force, bool(touching))
-        for c, gap, bound, force, touching in zip(
-            problem.contacts, gaps, bounds, prepared.contact_forces(force_rows), active
+    contacts = LazySequence(
+        lambda: (
+            Contact(c.joint, c.contact.name, float(gap), float(bound), force, bool(touching))
+            for c, gap, bound, force, touching in zip(
+                problem.contacts, gaps, bounds, prepared.contact_forces(force_rows), active
+            )
         )
     )
     residuals = dict(residuals)
