@@ -47,84 +47,63 @@ class PreparedGeometry:
 
     def __init__(self, mechanism, configuration, maps: SmallDisplacementMaps, geometry):
         geometry: ReducedGeometry
-        model = mechanism.model
         self.mechanism = mechanism
         self.configuration = configuration
         self.maps = maps
         self.geometry = geometry
         self.length = mechanism.length_scale()
-        self.signature = (
-            geometry.basis.shape[1],
-            tuple((c.contact.shape, c.rows.shape[0]) for c in geometry.contacts),
-        )
-        n, bodies = maps.size, model.njoints
-        scale = geometry.scale
-        self.size_x = n
+        self.__dict__.update(_geometry_terms(mechanism, geometry))  # shared by configurations
+        bodies = mechanism.model.njoints
+        self.bodies = bodies
         # rows: scaled gradient Z g (n), reduced Q^T Z g (r), along the unblocked motions (f)
-        scaled = -scale[:, None] * np.hstack([maps.body_twist[b].T for b in range(bodies)])
+        scaled = -geometry.scale[:, None] * np.hstack([maps.body_twist[b].T for b in range(bodies)])
         self._load_rows = np.vstack(
             [scaled, geometry.basis.T @ scaled, geometry.free_scaled.T @ scaled]
         )
-        self._split = (n, n + geometry.basis.shape[1])
-        self.play = float(statistics.median(scale.tolist())) if scale.size else 0.0
-        # the whole load on the clearance scale: sum_b |F_b| c + |M_b| c / L (c: median scale)
-        self._size_weights = np.array([self.play, self.play / max(self.length, 1e-300)])
-        self._frames = {}
-        for link, frame_id in mechanism.link_frames.items():
-            placement = configuration.oMf[frame_id]
-            body = model.frames[frame_id].parentJoint
-            self._frames[link] = (body, placement.rotation.copy(), placement.translation.copy())
-        # gravity: W_b = (m a, c_b x m a) = Gm_b a, stacked (6 * bodies, 3)
-        self._gravity = np.zeros((bodies, 6, 3))
-        for body in range(1, bodies):
-            inertia = model.inertias[body]
-            if inertia.mass > 0.0:
-                centre = configuration.oMi[body].act(inertia.lever)
-                self._gravity[body, :3] = inertia.mass * np.eye(3)
-                self._gravity[body, 3:] = inertia.mass * pin.skew(centre)
-        self._gravity = self._gravity.reshape(6 * bodies, 3)
-        self.bodies = bodies
+        self._frames: dict[str, tuple] = {}  # link -> (body, R, t), filled on first use
+        self._gravity: np.ndarray | None = None
         # answer maps
-        self.x_from_y = scale[:, None] * geometry.basis
-        self.joint_names = tuple(mechanism.joints)
         self._torsor_rows = np.vstack([maps.joint_torsor[name] for name in self.joint_names])
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
-        contacts = geometry.contacts
-        self._contact_rows = np.vstack([c.rows for c in contacts]) if contacts else np.zeros((0, n))
-        self.bounds = np.array([c.contact.bound for c in contacts])
-        self._contact_of_row = geometry.stack.row_contact
-        self._starts = geometry.stack.starts
-        self._is_norm = geometry.stack.is_norm
-        self._scatter = np.array(
-            [3 * j + k for j, c in enumerate(contacts) for k in c.contact.components], dtype=int
-        )
-        row_bounds = self.bounds[self._contact_of_row]
-        row_is_norm = self._is_norm[self._contact_of_row]
-        self._norm_force = np.where(row_is_norm, -2.0 / row_bounds**2, 0.0)
-        self._slab_force = np.where(row_is_norm, 0.0, -1.0 / row_bounds)
-        reactions = geometry.equalities.T * scale[:, None]
-        self._reactions = _column_basis(reactions)
-        self._flat: dict[bytes, tuple] = {}
-        geometry.stack.projection_hints = mechanism._solve_state.setdefault(
-            ("projection hints", self.signature), set()
-        )
 
     # -- loads ---------------------------------------------------------------------------------
+    def _frame(self, link: str) -> tuple:
+        """(body, R, t): the body carrying ``link`` and the link frame's world placement."""
+        entry = self._frames.get(link)
+        if entry is None:
+            frame_id = self.mechanism.link_frames.get(link)
+            if frame_id is None:
+                known = ", ".join(sorted(self.mechanism.link_frames))
+                raise LoadError(f"on {link!r}", f"unknown link; the model's links are: {known}")
+            placement = self.configuration.oMf[frame_id]
+            body = self.mechanism.model.frames[frame_id].parentJoint
+            entry = (body, placement.rotation.copy(), placement.translation.copy())
+            self._frames[link] = entry
+        return entry
+
+    def _gravity_map(self) -> np.ndarray:
+        """W_b = (m a, c_b x m a) = Gm_b a per body (c_b: world centre of mass), (6 bodies, 3)."""
+        if self._gravity is None:
+            model = self.mechanism.model
+            gravity = np.zeros((self.bodies, 6, 3))
+            for body in range(1, self.bodies):
+                inertia = model.inertias[body]
+                if inertia.mass > 0.0:
+                    centre = self.configuration.oMi[body].act(inertia.lever)
+                    gravity[body, :3] = inertia.mass * np.eye(3)
+                    gravity[body, 3:] = inertia.mass * pin.skew(centre)
+            self._gravity = gravity.reshape(6 * self.bodies, 3)
+        return self._gravity
+
     def wrenches(self, loads) -> np.ndarray:
         """Body wrenches at the world origin (bodies, 6) [N, N m] of ``loads`` (ground excluded)."""
         wrench = np.zeros((self.bodies, 6))
         for load in loads:
             if isinstance(load, Gravity):
-                wrench += (self._gravity @ load.acceleration).reshape(self.bodies, 6)
+                wrench += (self._gravity_map() @ load.acceleration).reshape(self.bodies, 6)
                 continue
-            entry = self._frames.get(load.link)
-            if entry is None:
-                known = ", ".join(sorted(self._frames))
-                raise LoadError(
-                    f"on {load.link!r}", f"unknown link; the model's links are: {known}"
-                )
-            body, rotation, translation = entry
+            body, rotation, translation = self._frame(load.link)
             if isinstance(load, PointForce):
                 point = rotation @ load.point + translation
                 wrench[body, :3] += load.force
@@ -279,6 +258,55 @@ class PreparedGeometry:
             )
             cached = self._flat[key] = (flat, descriptions)
         return cached
+
+
+def _geometry_terms(mechanism, geometry) -> dict:
+    """The load- and configuration-independent terms of a reduced geometry, built once per
+    geometry (a mechanism without loops has one geometry for all its configurations)."""
+    key = ("geometry terms", id(geometry))
+    cached = mechanism._solve_state.get(key)
+    if cached is not None and cached[0] is geometry:
+        return cached[1]
+    scale = geometry.scale
+    n = scale.size
+    stack = geometry.stack
+    contacts = geometry.contacts
+    signature = (
+        geometry.basis.shape[1],
+        tuple((c.contact.shape, c.rows.shape[0]) for c in contacts),
+    )
+    bounds = np.array([c.contact.bound for c in contacts])
+    row_bounds = bounds[stack.row_contact]
+    row_is_norm = stack.is_norm[stack.row_contact]
+    play = float(statistics.median(scale.tolist())) if scale.size else 0.0
+    length = mechanism.length_scale()
+    stack.projection_hints = mechanism._solve_state.setdefault(
+        ("projection hints", signature), set()
+    )
+    terms = {
+        "signature": signature,
+        "size_x": n,
+        "_split": (n, n + geometry.basis.shape[1]),
+        "play": play,
+        # the whole load on the clearance scale: sum_b |F_b| c + |M_b| c / L (c: median scale)
+        "_size_weights": np.array([play, play / max(length, 1e-300)]),
+        "x_from_y": scale[:, None] * geometry.basis,
+        "joint_names": tuple(mechanism.joints),
+        "_contact_rows": np.vstack([c.rows for c in contacts]) if contacts else np.zeros((0, n)),
+        "bounds": bounds,
+        "_contact_of_row": stack.row_contact,
+        "_starts": stack.starts,
+        "_is_norm": stack.is_norm,
+        "_scatter": np.array(
+            [3 * j + k for j, c in enumerate(contacts) for k in c.contact.components], dtype=int
+        ),
+        "_norm_force": np.where(row_is_norm, -2.0 / row_bounds**2, 0.0),
+        "_slab_force": np.where(row_is_norm, 0.0, -1.0 / row_bounds),
+        "_reactions": _column_basis(geometry.equalities.T * scale[:, None]),
+        "_flat": {},
+    }
+    mechanism._solve_state[key] = (geometry, terms)
+    return terms
 
 
 class LazyMapping(Mapping):

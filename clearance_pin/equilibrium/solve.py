@@ -36,14 +36,30 @@ def prepared_geometry(mechanism, q=None) -> PreparedGeometry:
         maps = build_maps(
             mechanism.model, mechanism.data, mechanism.tree_joints, mechanism.loop_joints
         )
-        geometry = reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
+        geometry = _reduced_geometry(mechanism, maps)
         if len(mechanism._solve_state) > 64:
             mechanism._solve_state = {
-                k: v for k, v in mechanism._solve_state.items() if k[0] != "geometry"
+                k: v
+                for k, v in mechanism._solve_state.items()
+                if k[0] not in ("geometry", "geometry terms")
             }
         prepared = PreparedGeometry(mechanism, configuration, maps, geometry)
         mechanism._solve_state[key] = prepared
     return prepared
+
+
+def _reduced_geometry(mechanism, maps):
+    """The reduction at the configuration of ``maps``; without loop joints it is the same at every
+    configuration (the unknowns are the joints' own torsors and each contact reads its own joint's
+    torsor, so no constraint depends on where the parts are), so it is done once."""
+    if mechanism.loop_joints:
+        return reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
+    key = ("tree geometry",)
+    geometry = mechanism._solve_state.get(key)
+    if geometry is None:
+        geometry = reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
+        mechanism._solve_state[key] = geometry
+    return geometry
 
 
 def linear_setup(mechanism, loads, q):
