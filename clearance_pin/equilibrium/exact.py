@@ -17,7 +17,7 @@ The difference from the linear model is of second order (rotation x displacement
 from __future__ import annotations
 
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
@@ -29,6 +29,22 @@ from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_
 from ..model.clearance import ALPHA, BETA, GAMMA
 from .result import Contact, Equilibrium
 from .small_displacement import null_space, tree_joint_basis
+
+
+@dataclass(frozen=True)
+class ExactParts:
+    """The exact model evaluated at (z, lambda): gradient of the scaled potential (n,),
+    constraints g (m,), their Jacobian (m, n), Hessian of the Lagrangian (n, n), potential [J],
+    loop equations (all, redundant ones included), and the poses: (3, 4) [R | p] of every body,
+    then of every joint's relative placement (tree joints, then loop joints)."""
+
+    gradient: np.ndarray
+    g: np.ndarray
+    jacobian: np.ndarray
+    hessian: np.ndarray
+    energy: float
+    closure: np.ndarray
+    poses: list
 
 
 class ExactProblem:
@@ -133,30 +149,47 @@ class ExactProblem:
         lower = [-ca.inf if s == "norm" else -1.0 for s in self.shapes] + [0.0] * self.n_equality
         upper = [1.0] * len(self.shapes) + [0.0] * self.n_equality
         self.lower, self.upper = np.array(lower), np.array(upper)
-        outputs = [ca.horzcat(R, p) for R, p in placed] + [
+        poses = [ca.horzcat(R, p) for R, p in placed] + [
             ca.horzcat(*relative[name]) for name in mechanism.joints
         ]
-        self.evaluate = ca.Function("exact_pose", [z, parameters], outputs)
-        jacobian_g = ca.jacobian(constraints, z)
         multipliers = ca.SX.sym("lam", constraints.shape[0])
         lagrangian = energy / sigma + ca.dot(multipliers, constraints)
-        self.kkt_parts = ca.Function(
-            "exact_kkt_parts",
-            [z, parameters, multipliers],
-            [
-                ca.gradient(energy / sigma, z),
-                constraints,
-                jacobian_g,
-                ca.hessian(lagrangian, z)[0],
-                energy,
-            ],
+        closure = ca.vertcat(*equality) if equality else ca.SX.zeros(1)
+        parts = [
+            ca.gradient(energy / sigma, z),
+            constraints,
+            ca.jacobian(constraints, z),
+            ca.hessian(lagrangian, z)[0],
+            energy,
+            closure,
+            *poses,
+        ]
+        # one function, one flat output: a CasADi call and its conversion cost more than the
+        # evaluation itself on problems of this size
+        self._part_shapes = [part.shape for part in parts]
+        self._all_parts = ca.Function(
+            "exact_kkt_parts", [z, parameters, multipliers], [ca.vertcat(*map(ca.vec, parts))]
         )
-        self.closure = ca.Function(
-            "exact_closure",
-            [z, parameters],
-            [ca.vertcat(*equality) if equality else ca.SX.zeros(1)],
-        )
+        self._pose_count = len(poses)
         self.build_time = time.perf_counter() - started
+
+    def evaluate(self, z: np.ndarray, params: np.ndarray, lam: np.ndarray) -> ExactParts:
+        """Everything the Newton step and the answer need at (z, lambda), from one CasADi call."""
+        flat = self._all_parts(z, params, lam).full().ravel()  # params: a ca.DM, converted once
+        arrays, offset = [], 0
+        for rows, columns in self._part_shapes:
+            arrays.append(flat[offset : offset + rows * columns].reshape(rows, columns, order="F"))
+            offset += rows * columns
+        gradient, g, jacobian, hessian, energy, closure = arrays[:6]
+        return ExactParts(
+            gradient.ravel(),
+            g.ravel(),
+            jacobian,
+            hessian,
+            float(energy[0, 0]),
+            closure.ravel(),
+            arrays[6:],
+        )
 
     def parameters(self, configuration, scale, body_loads, linear_problem, sigma) -> np.ndarray:
         """Numeric parameter vector for one solve."""
@@ -246,20 +279,31 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
         cache[key] = ExactProblem(mechanism, problem, rows, tol)
     exact = cache[key]
     sigma = problem.objective_scale or 1.0
-    params = exact.parameters(configuration, problem.scale, body_loads, problem, sigma)
+    params = ca.DM(exact.parameters(configuration, problem.scale, body_loads, problem, sigma))
     x_linear = np.concatenate([_coordinates(linear, joint) for joint in mechanism.tree_joints])
     z0 = x_linear / problem.scale
     solve_started = time.perf_counter()
-    result = exact.solver(x0=z0, p=params, lbg=exact.lower, ubg=exact.upper)
-    stats = dict(exact.solver.stats())
-    z = np.asarray(result["x"], dtype=float).ravel()
-    lam = np.asarray(result["lam_g"], dtype=float).ravel()
-    polished = polish_exact(exact, z, lam, params)
+    # the exact answer is a second-order correction of the linear one, on the same contacts:
+    # Newton on the exact KKT system of those contacts first, IPOPT only if it is not verified
+    polished = polish_exact(
+        exact, z0, np.zeros(exact.lower.size), params, *_linear_sides(linear, exact.shapes)
+    )
     if polished is not None:
-        z, lam = polished
-        stats["return_status"] = f"ipopt: {stats['return_status']}, Newton-polished"
+        z, lam, parts = polished
+        stats = {"return_status": "Newton from the linear solution", "iter_count": 0}
+    else:
+        result = exact.solver(x0=z0, p=params, lbg=exact.lower, ubg=exact.upper)
+        stats = dict(exact.solver.stats())
+        z = np.asarray(result["x"], dtype=float).ravel()
+        lam = np.asarray(result["lam_g"], dtype=float).ravel()
+        polished = polish_exact(exact, z, lam, params)
+        if polished is not None:
+            z, lam, parts = polished
+            stats["return_status"] = f"ipopt: {stats['return_status']}, Newton-polished"
+        else:
+            parts = exact.evaluate(z, params, lam)
     equilibrium = _assemble(
-        mechanism, exact, problem, configuration, z, lam, params, sigma, stats, polished is not None
+        mechanism, exact, problem, configuration, z, lam, parts, sigma, stats, polished is not None
     )
     equilibrium.polished = polished is not None
     equilibrium.build_time = exact.build_time if built_now else 0.0
@@ -275,38 +319,57 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     return equilibrium
 
 
-def polish_exact(exact: ExactProblem, z, lam, params, iterations: int = 12):
-    r"""Active-set Newton on the exact KKT system from IPOPT's answer; None unless verified.
+def _linear_sides(linear: Equilibrium, shapes: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Contacts of the linear solution (same order as the exact model's contact constraints)
+    that carry load, split into upper bounds (balls, discs, slabs pushed on their + side) and
+    lower bounds (slabs pushed on their - side, where the parent pushes the child towards +):
+    the exact model's active set to start from."""
+    upper, lower = [], []
+    for contact, shape in zip(linear.contacts, shapes):
+        loaded = contact.active and contact.force_magnitude > 0.0
+        minus_side = loaded and shape != "norm" and float(contact.force.sum()) > 0.0
+        upper.append(loaded and not minus_side)
+        lower.append(minus_side)
+    return np.array(upper, dtype=bool), np.array(lower, dtype=bool)
 
-    Active: the equalities, and the contact constraints within 1e-6 of their bound or carrying
-    a multiplier. Solves :math:`\nabla f + J_A^T \lambda_A = 0`, :math:`g_A = b_A` with the exact
+
+def polish_exact(
+    exact: ExactProblem, z, lam, params, at_upper=None, at_lower=None, iterations: int = 12
+):
+    r"""Active-set Newton on the exact KKT system from a nearby point; None unless verified.
+
+    Active: the equalities, and the contact constraints ``at_upper`` / ``at_lower`` (default:
+    those within 1e-6 of their bound or carrying a multiplier, from IPOPT's answer).
+    Solves :math:`\nabla f + J_A^T \lambda_A = 0`, :math:`g_A = b_A` with the exact
     Lagrangian Hessian, then accepts only if every contact multiplier pushes (>= 0 in the sense of
     its bound), every other contact is feasible, and the residual is at round-off.
     """
     n_in = len(exact.shapes)
     lower, upper = exact.lower, exact.upper
-    _, g, _, _, _ = (np.asarray(v) for v in exact.kkt_parts(z, params, lam))
-    g = g.ravel()
-    largest = max(1.0, float(np.max(np.abs(lam[:n_in]), initial=0.0)))
-    at_upper = (np.abs(g[:n_in] - upper[:n_in]) < 1e-6) | (lam[:n_in] > 1e-9 * largest)
-    at_lower = np.isfinite(lower[:n_in]) & (
-        (np.abs(g[:n_in] - lower[:n_in]) < 1e-6) | (lam[:n_in] < -1e-9 * largest)
-    )
+    g = exact.evaluate(z, params, lam).g
+    if at_upper is None:
+        largest = max(1.0, float(np.max(np.abs(lam[:n_in]), initial=0.0)))
+        at_upper = (np.abs(g[:n_in] - upper[:n_in]) < 1e-6) | (lam[:n_in] > 1e-9 * largest)
+        at_lower = np.isfinite(lower[:n_in]) & (
+            (np.abs(g[:n_in] - lower[:n_in]) < 1e-6) | (lam[:n_in] < -1e-9 * largest)
+        )
+    if not (np.any(at_upper) or np.any(at_lower)):
+        return None
     active = np.concatenate([np.flatnonzero(at_upper | at_lower), np.arange(n_in, g.size)])
     target = np.where(at_lower, lower[:n_in], upper[:n_in])
     targets = np.concatenate([target, np.zeros(g.size - n_in)])[active]
     z, lam = z.copy(), lam.copy()
     n = z.size
     for _ in range(iterations):
-        gradient, g, jacobian, hessian, _ = (np.asarray(v) for v in exact.kkt_parts(z, params, lam))
-        g = g.ravel()
-        j_active = jacobian[active]
-        residual = np.concatenate(
-            [gradient.ravel() + j_active.T @ lam[active], g[active] - targets]
-        )
+        parts = exact.evaluate(z, params, lam)
+        g = parts.g
+        j_active = parts.jacobian[active]
+        residual = np.concatenate([parts.gradient + j_active.T @ lam[active], g[active] - targets])
         if np.abs(residual).max() < 1e-14:
             break
-        kkt = np.block([[hessian, j_active.T], [j_active, np.zeros((active.size, active.size))]])
+        kkt = np.block(
+            [[parts.hessian, j_active.T], [j_active, np.zeros((active.size, active.size))]]
+        )
         step = np.linalg.lstsq(kkt, -residual, rcond=None)[0]
         z += step[:n]
         lam[active] += step[n:]
@@ -316,7 +379,7 @@ def polish_exact(exact: ExactProblem, z, lam, params, iterations: int = 12):
     lam[inactive] = 0.0
     pushes = np.all(lam[:n_in][at_upper] >= -1e-12) and np.all(lam[:n_in][at_lower] <= 1e-12)
     feasible = np.all(g[:n_in] <= upper[:n_in] + 1e-13) and np.all(g[:n_in] >= lower[:n_in] - 1e-13)
-    return (z, lam) if (feasible and pushes) else None
+    return (z, lam, parts) if (feasible and pushes) else None
 
 
 def _coordinates(linear: Equilibrium, joint) -> np.ndarray:
@@ -330,15 +393,14 @@ def _assemble(
     configuration,
     z,
     lam,
-    params,
+    parts: ExactParts,
     sigma,
     stats,
     polished_multipliers: bool = False,
 ):
     model = mechanism.model
-    outputs = [np.asarray(o) for o in exact.evaluate(z, params)]
-    placed = outputs[: model.njoints]
-    relatives = dict(zip(mechanism.joints, outputs[model.njoints :]))
+    placed = parts.poses[: model.njoints]
+    relatives = dict(zip(mechanism.joints, parts.poses[model.njoints :]))
     torsors = {}
     x = problem.scale * z
     offset = 0
@@ -373,10 +435,7 @@ def _assemble(
         force[list(point.components)] = local
         active = gap <= 1e-7 * point.bound or (polished_multipliers and lam[j] != 0.0)
         contacts.append(Contact(name, point.name, gap, point.bound, force, bool(active)))
-    scaled_gradient, _, jacobian, _, energy = (
-        np.asarray(v) for v in exact.kkt_parts(z, params, lam)
-    )
-    scaled_gradient = scaled_gradient.ravel()
+    scaled_gradient, jacobian, energy = parts.gradient, parts.jacobian, parts.energy
     inequality_jacobian = jacobian[:n_inequality]
     equality_jacobian = jacobian[n_inequality:]
     residual = scaled_gradient + inequality_jacobian.T @ lam[:n_inequality]
@@ -400,14 +459,14 @@ def _assemble(
         "max_violation_m": violation,
         "max_violation_rel": max((max(-c.gap, 0.0) / c.clearance for c in contacts), default=0.0),
         "clearance_m": max((c.clearance for c in contacts), default=0.0),
-        "closure": float(np.max(np.abs(np.asarray(exact.closure(z, params))), initial=0.0)),
+        "closure": float(np.max(np.abs(parts.closure), initial=0.0)),
     }
     return Equilibrium(
         formulation="exact",
         torsors=torsors,
         body_motions=body_motions,
         contacts=tuple(contacts),
-        energy=float(energy.ravel()[0]),
+        energy=energy,
         status="optimal",
         solver_status=stats["return_status"],
         iterations=int(stats.get("iter_count", 0)),
