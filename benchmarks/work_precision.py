@@ -97,11 +97,13 @@ class RunSettings:
         perturbation: relative size of the random load perturbation (0.3: about 17 degrees).
         seed: seed of the load perturbations.
         sweep: tolerance settings swept per method family.
+        trajectory_points: points of the 6R arm trajectory (solve_many over configurations).
     """
 
     loads: int = 200
     budget_s: float = 2.0
     min_solves: int = 20
+    trajectory_points: int = 1000
     exact_loads: int = 60
     batch_repeats: int = 5
     perturbation: float = 0.3
@@ -116,6 +118,7 @@ class RunSettings:
 
 
 QUICK = RunSettings(
+    trajectory_points=200,
     loads=20,
     budget_s=0.3,
     min_solves=5,
@@ -1004,6 +1007,57 @@ def _clean(value):
     return value
 
 
+def trajectory_benchmark(points: int) -> dict:
+    """A planner's use: the 6R arm (models/arm_6r.urdf) with its tool load along a trajectory of
+    all six joints (each q_i + 0.5 sin(phase + i), one turn of the phase over the points),
+    solved by ``solve_many(configurations=...)`` on a freshly loaded mechanism (its first solve
+    and every configuration's geometry included). Reference: cold solves (nothing carried
+    from the previous point) of every 10th point on another fresh mechanism; the two must agree."""
+    mechanism = clearance_pin.load(ROOT / "models" / "arm_6r.urdf")
+    phases = np.linspace(0.0, 2.0 * np.pi, points)
+    configurations = [
+        mechanism.q_nominal + 0.5 * np.sin(phase + np.arange(mechanism.model.nq))
+        for phase in phases
+    ]
+    gc.collect()
+    started = time.perf_counter()
+    batch = mechanism.solve_many(configurations=configurations, errors="return", progress=False)
+    wall = time.perf_counter() - started
+    cold_mechanism = clearance_pin.load(ROOT / "models" / "arm_6r.urdf")
+    cold_times, worst = [], 0.0
+    clearance = max(c.bound for j in cold_mechanism.joints.values() for c in j.clearance.contacts)
+    for k in range(0, points, 10):
+        started = time.perf_counter()
+        cold = cold_mechanism.solve(q=configurations[k], warm_start=False)
+        cold_times.append(time.perf_counter() - started)
+        if not isinstance(batch[k], Exception):
+            differences = [
+                float(np.abs(batch[k].torsors[name] - t).max()) for name, t in cold.torsors.items()
+            ]
+            worst = max(worst, *differences)
+    statuses: dict[str, int] = {}
+    for status in batch.statuses:
+        statuses[status] = statuses.get(status, 0) + 1
+    result = {
+        "model": "arm_6r",
+        "points": points,
+        "wall_s": wall,
+        "per_point_s": wall / points,
+        "seconds_per_1000_points": 1000.0 * wall / points,
+        "cold_median_s": float(np.median(cold_times)),
+        "max_difference_to_cold_rel": worst / clearance,
+        "ok": int(np.sum(batch.ok)),
+        "statuses": statuses,
+    }
+    print(
+        f"trajectory arm_6r: {points} points in {wall:.2f} s ({1e3 * wall / points:.2f} ms per "
+        f"point; cold solve {1e3 * result['cold_median_s']:.2f} ms), warm = cold to "
+        f"{result['max_difference_to_cold_rel']:.1e} of the clearance, {result['ok']} ok",
+        flush=True,
+    )
+    return result
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, help="write the results to this JSON file")
@@ -1073,6 +1127,11 @@ def main(argv: list[str] | None = None) -> int:
             "peers": case.shaft is not None,
             "reference": refs_info[case.id],
         }
+    trajectory = (
+        trajectory_benchmark(settings.trajectory_points)
+        if not args.cases or "model:arm_6r" in args.cases
+        else None
+    )
     case_ratios = ratios(results)
     totals = summary(results, tolerances)
     print_tables(results, case_ratios, totals, refs_info)
@@ -1081,6 +1140,7 @@ def main(argv: list[str] | None = None) -> int:
         "ratios": case_ratios,
         "summary": totals,
         "case_info": info,
+        "trajectory": trajectory,
         "settings": asdict(settings),
         "tolerances": asdict(tolerances),
         "machine": {
