@@ -118,7 +118,7 @@ def test_si_accessor() -> None:
     assert tolerance_m("IT10", 0.050) == pytest.approx(100e-6, rel=1e-15)
     assert tolerance_m("IT10", 0.120) == pytest.approx(140e-6, rel=1e-15)
     for grade in GRADES:
-        for lo, hi in ISO286_RANGES_MM:
+        for _lo, hi in ISO286_RANGES_MM:
             assert tolerance_m(grade, hi / 1e3) == pytest.approx(
                 tolerance_um(grade, hi) * 1e-6, rel=1e-15
             )
