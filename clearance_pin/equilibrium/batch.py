@@ -234,7 +234,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
             seed.signs,
             accept=acceptance(geometry.conditioning),
         )
-        y, verified = _minimum_norm(prepared, geometry.stack, seed, y, multipliers, verified)
+        verified = _unique(geometry.stack, seed, y, multipliers, verified)
         x = y @ prepared.x_from_y.T
         # the same independent checks as a single solve: statics in x, penetration
         gaps, forces = prepared.contact_state(x, multipliers, seed.signs, sigmas[pending][:, None])
@@ -298,22 +298,25 @@ def _problem_with_load(prepared, load) -> ReducedProblem:
     )
 
 
-def _minimum_norm(prepared, stack, seed, y, multipliers, verified):
-    """Cases whose loaded contacts are the seed's: moved to the minimum-norm point along the
-    directions the load does not see (as a single solve does); other cases are left unverified."""
+def _unique(stack, seed, y, multipliers, verified):
+    """Cases whose optimum is unique (no direction that keeps the loaded contacts and sees no
+    curvature, as :meth:`~.prepared.PreparedGeometry.flat_directions` decides for a single
+    solve) and whose loaded contacts are the seed's; the others are left to single solves, which
+    move them to the minimum-norm point."""
     loaded_seed = seed.multipliers > UNLOADED * seed.multipliers.max(initial=0.0)
     largest = multipliers.max(axis=1, initial=0.0)
-    same = np.all((multipliers > UNLOADED * largest[:, None]) == loaded_seed, axis=1)
-    verified = verified & same
-    flat, _ = prepared.flat_directions(np.flatnonzero(loaded_seed))
-    if flat.shape[1]:
-        centred = y - (y @ flat) @ flat.T
-        image = centred @ stack.matrix.T
-        squares = np.add.reduceat(image * image, stack.starts, axis=1)
-        phi = np.where(stack.is_norm, squares, np.abs(image[:, stack.starts])) - 1.0
-        inside = phi.max(axis=1, initial=-1.0) <= 1e-13
-        y = np.where(inside[:, None], centred, y)
-    return y, verified
+    loaded = multipliers > UNLOADED * largest[:, None]
+    verified = verified & np.all(loaded == loaded_seed, axis=1)
+    image = y @ stack.matrix.T
+    weights = np.where(stack.row_is_norm, 2.0 * image, seed.signs[stack.row_contact])
+    gradients = np.add.reduceat(stack.matrix[None] * weights[:, :, None], stack.starts, axis=1)
+    gradients *= loaded[:, :, None]
+    row_weights = np.where(stack.row_is_norm, 2.0 * multipliers[:, stack.row_contact], 0.0)
+    hessians = np.matmul(stack.matrix.T[None] * row_weights[:, None, :], stack.matrix)
+    rows = np.concatenate([gradients, hessians], axis=1)
+    rows /= np.maximum(1.0, np.abs(rows).max(axis=(1, 2)))[:, None, None]
+    singular = np.linalg.svd(rows, compute_uv=False)
+    return verified & (singular[:, -1] > 1e-9 * singular[:, 0])
 
 
 def _lazy_item(prepared, load, y, multipliers, signs, table):
@@ -335,9 +338,6 @@ def _lazy_item(prepared, load, y, multipliers, signs, table):
             0.0,
             0.0,
             dict(zip(RESIDUAL_NAMES, map(float, table))),
-            prepared.flat_directions(
-                np.flatnonzero(multipliers > UNLOADED * multipliers.max(initial=0.0))
-            )[1],
         )
 
     return build

@@ -52,8 +52,6 @@ class StackedContacts:
         # contacts of an active set when first needed (see subset)
         self._matrices = matrices
         self._subsets: dict[tuple, tuple] = {}
-        # active sets whose KKT matrix Newton factorised without trouble: no motion escapes them
-        self.nonsingular: set[bytes] = set()
         # active sets that needed the projected Newton; shared by the geometries of one structure
         # (set by the caller), since which motions a set of contacts sees is structural
         self.projection_hints: set[bytes] = set()
@@ -218,8 +216,6 @@ def newton(
         residual = np.concatenate((objective + np.dot(lam, gradients), values))
         size_now = np.dot(residual, residual)
         if size_now < converged:
-            if not projected:
-                stack.nonsingular.add(active.tobytes())
             return y.copy(), lam.copy(), gradients
         if iteration == iterations or (iteration >= 6 and size_now > 1e-8):
             break  # quadratic convergence did not set in: a wrong active set, give up early

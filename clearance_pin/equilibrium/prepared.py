@@ -10,8 +10,8 @@ times, so every load-independent product is formed here, and a solve costs a few
   stacked matrix on the stacked wrenches.
 - *Answer.* Joint torsors, body twists and contact images are stacked maps of x; the contact
   forces and the statics residual are vectorised over contacts.
-- *Indeterminacy.* The motions along which the optimum is not unique depend only on which
-  contacts carry load (:meth:`PreparedGeometry.flat_directions`), so they are memoised per set.
+- *Indeterminacy.* The motions along which the optimum is not unique
+  (:meth:`PreparedGeometry.flat_directions`) are found at each answer, by one SVD.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ import pinocchio as pin
 from ..errors import LoadError
 from ..model.loads import Gravity, PointForce, Torque
 from ..numerics import cross
+from .kkt import UNLOADED
 from .reduction import (
     ROUND_OFF_WORK,
     UNBOUNDED_FRACTION,
@@ -32,7 +33,7 @@ from .reduction import (
     describe_motion,
     with_scaled_load,
 )
-from .small_displacement import SmallDisplacementMaps
+from .small_displacement import SmallDisplacementMaps, null_space
 
 
 class PreparedGeometry:
@@ -226,38 +227,41 @@ class PreparedGeometry:
         out[self._scatter] = forces
         return out.reshape(-1, 3)
 
-    def flat_directions(self, loaded: np.ndarray) -> tuple[np.ndarray, LazySequence]:
-        r"""Directions (r, k) along which the optimum is not unique, with their descriptions.
+    def flat_directions(self, y, multipliers, signs) -> tuple[np.ndarray, LazySequence]:
+        r"""Directions (r, k) along which the optimum at (y, multipliers) is not unique, with
+        their descriptions.
 
-        With the set A of loaded contacts, a direction d with :math:`P_j d = 0` for every j in A
-        keeps each contact (:math:`G_A d = 0`) and sees no curvature
-        (:math:`\nabla^2 L\, d = \sum_A 2\lambda_j P_j^T P_j d = 0`): the load does not see it.
-        These are the null space of the rows of A, whatever y and the multipliers' values.
+        A contact carrying less than :data:`~.kkt.UNLOADED` (1e-9) of the largest force counts as
+        unloaded, the same share below which a load component along an unblocked motion is
+        neglected (:data:`~.reduction.UNBOUNDED_FRACTION`). With A the loaded contacts, a
+        direction d with :math:`G_A d = 0` (it keeps every contact) and :math:`\nabla^2 L\, d = 0`
+        (no curvature of the active cones along it, to 1e-9 of the largest) changes neither the
+        potential nor feasibility to second order: the load does not see it (for example the
+        axial play of a journal loaded only radially, or a ball's tangential slide when it
+        carries 1e-9 of the load).
         """
-        key = loaded.tobytes()
-        cached = self._flat.get(key)
-        if cached is None:
-            stack = self.geometry.stack
-            # Newton factorised the KKT matrix of this set: no motion escapes it (a flat d would
-            # give K (d, 0) = 0), whatever y; otherwise one SVD of the set's rows decides
-            flat = np.zeros((stack.size, 0)) if key in stack.nonsingular else stack.split(loaded)[1]
-            descriptions = LazySequence(
-                lambda: (
-                    "bounded but not loaded (the optimum is not unique; minimum-norm point "
-                    "returned): "
-                    + "; ".join(
-                        describe_motion(
-                            self.maps,
-                            self.mechanism.joints,
-                            self.x_from_y @ flat[:, i],
-                            self.length,
-                        )
+        stack = self.geometry.stack
+        largest = float(multipliers.max(initial=0.0))
+        loaded = np.flatnonzero(multipliers > UNLOADED * largest)
+        _, gradients = stack.evaluate(y, signs)
+        rows = np.vstack([gradients[loaded], stack.hessian(multipliers)])
+        scale = max(1.0, float(np.abs(rows).max(initial=0.0)))
+        flat = null_space(rows / scale, rtol=1e-9) if rows.size else np.eye(stack.size)
+        if not flat.shape[1]:
+            return flat, ()
+        descriptions = LazySequence(
+            lambda: (
+                "bounded but not loaded (the optimum is not unique; minimum-norm point "
+                "returned): "
+                + "; ".join(
+                    describe_motion(
+                        self.maps, self.mechanism.joints, self.x_from_y @ flat[:, i], self.length
                     )
-                    for i in range(flat.shape[1])
                 )
+                for i in range(flat.shape[1])
             )
-            cached = self._flat[key] = (flat, descriptions)
-        return cached
+        )
+        return flat, descriptions
 
 
 def _geometry_terms(mechanism, geometry) -> dict:
@@ -303,7 +307,6 @@ def _geometry_terms(mechanism, geometry) -> dict:
         "_norm_force": np.where(row_is_norm, -2.0 / row_bounds**2, 0.0),
         "_slab_force": np.where(row_is_norm, 0.0, -1.0 / row_bounds),
         "_reactions": _column_basis(geometry.equalities.T * scale[:, None]),
-        "_flat": {},
     }
     mechanism._solve_state[key] = (geometry, terms)
     return terms

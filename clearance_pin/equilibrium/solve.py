@@ -14,7 +14,6 @@ import pinocchio as pin
 
 from ..errors import ConditioningWarning, SolverError
 from .cone_solver import backend_for, solve_cone
-from .kkt import UNLOADED
 from .load_terms import gather_body_loads
 from .prepared import LazyMapping, LazySequence, PreparedGeometry, placements
 from .reduction import ReducedProblem, reduce_geometry
@@ -120,9 +119,8 @@ def solve_linear(
     flat_notes = ()
     if solution.polished:
         mechanism._solve_state[warm_key] = solution
-        largest = float(solution.multipliers.max(initial=0.0))
         flat, flat_notes = prepared.flat_directions(
-            np.flatnonzero(solution.multipliers > UNLOADED * largest)
+            solution.y, solution.multipliers, solution.signs
         )
         if flat.shape[1]:
             centred = solution.y - flat @ (flat.T @ solution.y)
