@@ -20,7 +20,7 @@ from ..progress import Progress
 from .batch_newton import batched_newton
 from .cone_solver import acceptance
 from .kkt import UNLOADED
-from .reduction import ReducedProblem
+from .reduction import loaded_problem
 from .result import FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
 
 BATCH_MINIMUM = 16
@@ -276,28 +276,6 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     return EquilibriumBatch(items, {"x": x_all, "batched": batched, "torsor_maps": torsor_maps})
 
 
-def _problem_with_load(prepared, load) -> ReducedProblem:
-    """A reduced problem of the prepared geometry for one batched load case
-    (x-space gradient g, objective f, objective scale sigma, load size)."""
-    gradient, objective, sigma, load_size = load
-    geometry = prepared.geometry
-    return ReducedProblem(
-        gradient,
-        geometry.scale,
-        geometry.basis,
-        geometry.contacts,
-        geometry.equalities,
-        geometry.free_motions,
-        geometry.free_descriptions,
-        objective,
-        float(sigma),
-        geometry.contact_matrices,
-        geometry.stack,
-        geometry.conditioning,
-        float(load_size),
-    )
-
-
 def _unique(stack, seed, y, multipliers, verified):
     """Cases whose optimum is unique (no direction that keeps the loaded contacts and sees no
     curvature, as :meth:`~.prepared.PreparedGeometry.flat_directions` decides for a single
@@ -327,7 +305,7 @@ def _lazy_item(prepared, load, y, multipliers, signs, table):
 
         return _assemble(
             prepared,
-            _problem_with_load(prepared, load),
+            loaded_problem(prepared.geometry, *load),
             y,
             multipliers,
             signs,

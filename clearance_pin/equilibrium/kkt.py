@@ -192,7 +192,13 @@ def newton(
     if not projected and active.tobytes() in stack.projection_hints:
         projected = True
     rows, starts, norm_rows, local, outer, seen = stack.subset(active, projected)
-    start_y, start_multipliers = y, multipliers
+
+    def retry_projected():
+        return newton(
+            stack, objective, y0, multipliers, signs, active, iterations, accept, projected=True
+        )
+
+    y0 = y
     slab_signs = (1.0 - norm_rows) * signs[active][local]
     twice_norm = 2.0 * norm_rows
     value_shift = norm_rows  # image * (weight - image) = image^2 (ball, disc), s image (slab)
@@ -228,17 +234,7 @@ def newton(
                 return y.copy(), lam.copy(), gradients  # verified already; K is singular
             if step is None and not projected:
                 stack.projection_hints.add(active.tobytes())
-                return newton(
-                    stack,
-                    objective,
-                    start_y,
-                    start_multipliers,
-                    signs,
-                    active,
-                    iterations,
-                    accept,
-                    projected=True,
-                )
+                return retry_projected()
             step = _least_squares_step(kkt, residual) if step is None else step
             if step is None:
                 return None
@@ -257,17 +253,7 @@ def newton(
     if np.abs(residual).max() <= accept:
         return y.copy(), lam.copy(), gradients
     if not projected:  # a nearly singular KKT matrix can pass LU with a wrong step
-        return newton(
-            stack,
-            objective,
-            start_y,
-            start_multipliers,
-            signs,
-            active,
-            iterations,
-            accept,
-            projected=True,
-        )
+        return retry_projected()
     return None
 
 

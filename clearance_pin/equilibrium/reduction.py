@@ -258,20 +258,32 @@ def with_scaled_load(
     if sigma <= ROUND_OFF_WORK * reference:
         reduced_gradient, sigma = np.zeros_like(reduced_gradient), 0.0  # round-off: no working load
     objective = reduced_gradient / sigma if sigma > 0.0 else reduced_gradient
+    return loaded_problem(geometry, scaled_gradient / scale, objective, sigma, load_size)
+
+
+def loaded_problem(
+    geometry: ReducedGeometry,
+    gradient: np.ndarray,
+    objective: np.ndarray,
+    sigma: float,
+    load_size: float,
+) -> ReducedProblem:
+    """The reduced problem of ``geometry`` for one load already reduced: x-space gradient g,
+    objective f, objective scale sigma [J] and load size [J] (see :func:`with_scaled_load`)."""
     return ReducedProblem(
-        scaled_gradient / scale,
-        scale,
+        gradient,
+        geometry.scale,
         geometry.basis,
         geometry.contacts,
         geometry.equalities,
         geometry.free_motions,
         geometry.free_descriptions,
         objective,
-        sigma,
+        float(sigma),
         geometry.contact_matrices,
         geometry.stack,
         geometry.conditioning,
-        load_size,
+        float(load_size),
     )
 
 
