@@ -13,7 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ConditioningWarning, SolverError
-from .cone_solver import backend_for, solve_cone
+from .cone_solver import WarmBet, backend_for, solve_cone
 from .load_terms import gather_body_loads
 from .prepared import LazyMapping, LazySequence, PreparedGeometry, placements
 from .reduction import ReducedProblem, reduce_geometry
@@ -109,7 +109,12 @@ def solve_linear(
     built, built_now = backend_for(problem, backend, tol, prepared.signature)
     warm_key = ("warm", prepared.signature)
     warm = mechanism._solve_state.get(warm_key) if warm_start else None
+    bet = mechanism._solve_state.setdefault(("warm bet", prepared.signature), WarmBet())
+    if warm is not None and not bet.worth_it():
+        warm = None
     solution = solve_cone(problem, built, warm=warm)
+    if warm is not None:
+        bet.record(solution.status == "warm Newton")
     if not solution.polished and built.name != "ipopt":
         fallback, fallback_built = backend_for(problem, "ipopt", tol, prepared.signature)
         second = solve_cone(problem, fallback)
