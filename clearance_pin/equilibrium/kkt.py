@@ -212,7 +212,7 @@ def newton(
     kkt[steps:, steps:] = -PROXIMAL * np.eye(count)
     unknowns = np.concatenate((y, multipliers[active]))
     y, lam = unknowns[:size], unknowns[size:]  # views: one update moves both
-    converged = POLISH_TOL * POLISH_TOL
+    converged, previous = POLISH_TOL * POLISH_TOL, np.inf
     for iteration in range(iterations + 1):
         image = np.dot(rows, y)
         weight = twice_norm * image + slab_signs
@@ -221,8 +221,11 @@ def newton(
         values = np.add.reduceat(image * (weight - value_shift * image), starts) - 1.0
         residual = np.concatenate((objective + np.dot(lam, gradients), values))
         size_now = np.dot(residual, residual)
-        if size_now < converged:
+        # converged; or one step after a residual below 1e-6, where quadratic convergence leaves
+        # round-off only (a further step would cost a factorisation to move the last digits)
+        if size_now < converged or (previous < 1e-12 and size_now <= accept * accept):
             return y.copy(), lam.copy(), gradients
+        previous = size_now
         if iteration == iterations or (iteration >= 6 and size_now > 1e-8):
             break  # quadratic convergence did not set in: a wrong active set, give up early
         kkt[:steps, :steps] = np.dot(lam, twice_outer).reshape(steps, steps)
