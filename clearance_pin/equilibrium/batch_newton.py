@@ -44,10 +44,9 @@ def batched_newton(
     cases = objectives.shape[0]
     active = np.flatnonzero(multipliers0 > 0.0)
     size, count = stack.size, active.size
-    rows, starts, norm_rows, local, outer, _ = stack.subset(active)
+    rows, starts, norm_rows, local, _, _ = stack.subset(active)
     slab_signs = (1.0 - norm_rows) * signs[active][local]
     twice_norm = 2.0 * norm_rows
-    twice_outer = 2.0 * outer
     unknowns = np.empty((cases, size + count))
     unknowns[:, :size] = y0
     unknowns[:, size:] = multipliers0[active]
@@ -64,7 +63,7 @@ def batched_newton(
         )
         if np.abs(residual).max() < POLISH_TOL:
             break
-        kkt[:, :size, :size] = (lam @ twice_outer).reshape(cases, size, size)
+        kkt[:, :size, :size] = np.matmul(rows.T[None] * (twice_norm * lam[:, local])[:, None], rows)
         kkt[:, :size, size:] = np.transpose(gradients, (0, 2, 1))
         kkt[:, size:, :size] = gradients
         try:

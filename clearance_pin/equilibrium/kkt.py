@@ -22,6 +22,8 @@ POLISH_TOL = 1e-14
 ACCEPT_KKT = 1e-12  # polished answers reach ~1e-15; a load component of 1e-10 must not pass
 UNLOADED = 1e-9  # a contact carrying less than this share of the largest force is unloaded
 PROXIMAL = 1e-12
+SUBSETS_KEPT = 64  # active sets whose rows are kept per geometry
+SUBSET_SIZE_KEPT = 200_000  # numbers in one kept set of rows (larger problems re-slice)
 ACTIVE_GAP = 1e-6
 
 
@@ -48,20 +50,18 @@ class StackedContacts:
         self.is_norm = np.array([s == "norm" for s in shapes], dtype=bool)
         self.row_contact = np.repeat(np.arange(self.count), lengths)
         self.row_is_norm = self.is_norm[self.row_contact] if self.count else np.zeros(0, bool)
-        # Hessian blocks O_j = P_j^T P_j of the balls and discs (zero for slabs), formed for the
-        # contacts of an active set when first needed (see subset)
-        self._matrices = matrices
         self._subsets: dict[tuple, tuple] = {}
         # active sets that needed the projected Newton; shared by the geometries of one structure
         # (set by the caller), since which motions a set of contacts sees is structural
         self.projection_hints: set[bytes] = set()
 
     def subset(self, active: np.ndarray, projected: bool = False) -> tuple:
-        """Rows of the contacts ``active`` (memoised): (P_A, first row of each contact in P_A,
-        per row 1.0 for a ball or disc row and 0.0 for a slab row, per row its index in
-        ``active``, O_A flattened to (a, r * r), and R). With ``projected``, R is the orthonormal
-        basis (r, s) of the motions the contacts of A see (one SVD), None when they see every
-        motion, and O_A is projected, R^T O_j R flattened to (a, s * s); else R is None."""
+        r"""Rows of the contacts ``active`` (memoised when small): (P_A, first row of each contact
+        in P_A, per row 1.0 for a ball or disc row and 0.0 for a slab row, per row its index in
+        ``active``, P_A R, R). With ``projected``, R is the orthonormal basis (r, s) of the
+        motions the contacts of A see (one SVD), None when they see every motion; without, R is
+        None and P_A R is P_A. The Hessian :math:`2 \sum_A \lambda_j P_j^T P_j` is formed from
+        these rows, weighted, in O(rows r^2) time and O(r^2) memory."""
         key = (active.tobytes(), projected)
         cached = self._subsets.get(key)
         if cached is None:
@@ -72,31 +72,21 @@ class StackedContacts:
             )
             local = np.searchsorted(active, self.row_contact[rows])
             starts = np.flatnonzero(np.r_[True, local[1:] != local[:-1]]) if rows.size else rows
+            matrix = self.matrix[rows]
             seen, flat = self.split(active) if projected else (None, np.zeros((self.size, 0)))
-            outer = self.hessian_blocks(active)
-            if flat.shape[1]:
-                outer = seen.T @ outer @ seen
-            else:
+            if not flat.shape[1]:
                 seen = None
             cached = (
-                self.matrix[rows],
+                matrix,
                 starts,
                 self.row_is_norm[rows].astype(float),
                 local,
-                outer.reshape(active.size, -1),
+                matrix if seen is None else matrix @ seen,
                 seen,
             )
-            if len(self._subsets) < 256:
+            if len(self._subsets) < SUBSETS_KEPT and matrix.size <= SUBSET_SIZE_KEPT:
                 self._subsets[key] = cached
         return cached
-
-    def hessian_blocks(self, contacts: np.ndarray) -> np.ndarray:
-        """O_j = P_j^T P_j of each of ``contacts`` (zero for a slab), (a, r, r)."""
-        blocks = np.zeros((len(contacts), self.size, self.size))
-        for k, j in enumerate(contacts):
-            if self.is_norm[j]:
-                blocks[k] = self._matrices[j].T @ self._matrices[j]
-        return blocks
 
     def split(self, contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r"""Orthonormal bases (r, s) and (r, r - s) of the motions the ``contacts`` see and of
@@ -105,7 +95,9 @@ class StackedContacts:
         key = ("split", contacts.tobytes())
         cached = self._subsets.get(key)
         if cached is None:
-            cached = self._subsets[key] = self._split(contacts)
+            cached = self._split(contacts)
+            if len(self._subsets) < SUBSETS_KEPT:
+                self._subsets[key] = cached
         return cached
 
     def _split(self, contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -185,13 +177,13 @@ def newton(
     Values and gradients come from the images :math:`v = P_A y` (accurate to round-off of
     :math:`\|P\|\|y\|`): :math:`\phi_j = \sum_{i \in j} v_i^2 - 1` (ball, disc) or
     :math:`s_j v_i - 1` (slab), :math:`G_j = \sum_{i \in j} w_i P_i` with :math:`w_i = 2 v_i` or
-    :math:`s_j`; the Hessian :math:`2 \sum_A \lambda_j P_j^T P_j` comes from the stored blocks.
+    :math:`s_j`; the Hessian :math:`2 \sum_A \lambda_j P_j^T P_j` from the weighted rows.
     This runs once per re-solve, so it is written for few array operations.
     """
     size, count = stack.size, active.size
     if not projected and active.tobytes() in stack.projection_hints:
         projected = True
-    rows, starts, norm_rows, local, outer, seen = stack.subset(active, projected)
+    rows, starts, norm_rows, local, seen_rows, seen = stack.subset(active, projected)
 
     def retry_projected():
         return newton(
@@ -202,7 +194,6 @@ def newton(
     slab_signs = (1.0 - norm_rows) * signs[active][local]
     twice_norm = 2.0 * norm_rows
     value_shift = norm_rows  # image * (weight - image) = image^2 (ball, disc), s image (slab)
-    twice_outer = 2.0 * outer
     # motions no contact of the set sees make the KKT matrix singular (y not unique there):
     # the step is taken in the motions they see, R (the caller centres the flat part)
     steps = size if seen is None else seen.shape[1]
@@ -228,7 +219,7 @@ def newton(
         previous = size_now
         if iteration == iterations or (iteration >= 6 and size_now > 1e-8):
             break  # quadratic convergence did not set in: a wrong active set, give up early
-        kkt[:steps, :steps] = np.dot(lam, twice_outer).reshape(steps, steps)
+        kkt[:steps, :steps] = np.dot(seen_rows.T * (twice_norm * lam[local]), seen_rows)
         if seen is None:
             kkt[:steps, steps:] = gradients.T
             kkt[steps:, :steps] = gradients
