@@ -1,26 +1,32 @@
-"""The warm-start bet: warm starts go on while they pay, and are re-tried now and then."""
+"""The warm-start bet: the cheaper route wins, and the other one is re-tried now and then."""
 
 from __future__ import annotations
 
 from clearance_pin.equilibrium.cone_solver import WarmBet
 
 
-def test_failing_warm_starts_are_skipped_then_retried():
-    bet = WarmBet()
-    for _ in range(WarmBet.PROBATION):
-        assert bet.worth_it()
-        bet.record(False)
-    decisions = [bet.worth_it() for _ in range(3 * WarmBet.RETRY_EVERY)]
-    assert sum(decisions) == 3  # one retry every RETRY_EVERY solves
-    assert decisions[WarmBet.RETRY_EVERY - 1] and not any(decisions[: WarmBet.RETRY_EVERY - 1])
+def _run(bet, warm_time, cold_time, solves):
+    routes = []
+    for _ in range(solves):
+        warm = bet.worth_it()
+        bet.record(warm, warm_time if warm else cold_time)
+        routes.append(warm)
+    return routes
 
 
-def test_paying_warm_starts_go_on_and_the_record_follows_the_recent_past():
+def test_the_cheaper_route_is_taken_and_the_other_retried():
     bet = WarmBet()
-    for _ in range(100):
-        assert bet.worth_it()
-        bet.record(True)
-    assert bet.attempts < WarmBet.MEMORY  # halved: old successes fade
-    while bet.worth_it():  # the loads drift apart: failures take over
-        bet.record(False)
-    assert 2 * bet.successes < bet.attempts
+    routes = _run(bet, warm_time=2e-3, cold_time=1e-3, solves=200)
+    assert routes[: WarmBet.PROBATION] == [True] * WarmBet.PROBATION  # warm first
+    later = routes[50:]
+    assert 0 < sum(later) <= len(later) // WarmBet.RETRY_EVERY + 1  # cold, warm now and then
+    bet = WarmBet()
+    later = _run(bet, warm_time=1e-4, cold_time=1e-3, solves=200)[50:]
+    assert len(later) - sum(later) <= len(later) // WarmBet.RETRY_EVERY + 1
+
+
+def test_the_bet_follows_a_change():
+    bet = WarmBet()
+    _run(bet, warm_time=2e-3, cold_time=1e-3, solves=100)
+    routes = _run(bet, warm_time=1e-4, cold_time=1e-3, solves=100)  # loads now close together
+    assert sum(routes[-50:]) >= 50 - 50 // WarmBet.RETRY_EVERY - 2

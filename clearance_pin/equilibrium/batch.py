@@ -24,6 +24,7 @@ from .reduction import loaded_problem
 from .result import FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
 
 BATCH_MINIMUM = 16
+BATCH_MAX_SIZE = 48  # reduced unknowns beyond which cases are solved one by one (warm-started)
 RESIDUAL_NAMES = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
 REGROUP_ROUNDS = 4  # batched Newton rounds, each seeded by a single solve of a contact set
 
@@ -206,6 +207,10 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
     prepared = prepared_geometry(mechanism)
     geometry = prepared.geometry
+    if geometry.basis.shape[1] > BATCH_MAX_SIZE:
+        # stacked dense KKT systems cost O(N r^3) memory traffic for little gain at this size
+        rest = _solve_chunk(mechanism, cases[1:], options, errors, bar)
+        return EquilibriumBatch([first, *rest])
     try:
         wrenches = np.array(
             [

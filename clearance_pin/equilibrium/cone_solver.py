@@ -243,38 +243,40 @@ def backend_for(problem: ReducedProblem, backend: str = "auto", tol: float = 1e-
 
 
 class WarmBet:
-    """Whether a warm start is worth trying for one structure, from its record.
+    """Whether a warm start is worth trying for one structure, from the times it has cost.
 
-    A warm start that fails costs its Newton rounds on top of the cold solve (on the 6R arm with
-    loads 30 % apart, four times the cold time). The record counts attempts and successes
-    (halved every 32 attempts, so it follows the recent past); after 8 attempts, warm starts go on
-    while at least half succeed, and are otherwise tried once every 16 solves to notice when the
-    loads come closer again.
+    A warm start is a bet: the Newton step from the previous contact set is cheap when the loads
+    are close and that set holds, and wasted (on top of the cold solve) when it does not; on
+    larger problems a converging warm Newton can still cost more than the cold solve (6R arm:
+    Clarabel plus a one-step polish). The bet keeps the mean solve time of warm attempts and of
+    cold solves (exponential averages over about 4 solves); after 4 of each it takes the cheaper
+    route, and tries the other one every 8 solves to follow changes.
     """
 
-    PROBATION = 8
-    RETRY_EVERY = 16
-    MEMORY = 32
+    PROBATION = 4
+    RETRY_EVERY = 8
+    WEIGHT = 0.25  # of the newest time in the running mean
 
     def __init__(self):
-        self.attempts = 0
-        self.successes = 0
-        self.skipped = 0
+        self.count = {True: 0, False: 0}
+        self.mean = {True: 0.0, False: 0.0}
+        self.solves = 0
 
     def worth_it(self) -> bool:
         """Try the warm start on this solve?"""
-        if self.attempts < self.PROBATION or 2 * self.successes >= self.attempts:
+        self.solves += 1
+        if self.count[True] < self.PROBATION:
             return True
-        self.skipped += 1
-        return self.skipped % self.RETRY_EVERY == 0
+        if self.count[False] < self.PROBATION:
+            return False
+        cheaper = self.mean[True] <= self.mean[False]
+        return cheaper != (self.solves % self.RETRY_EVERY == 0)
 
-    def record(self, succeeded: bool) -> None:
-        """Count one attempt."""
-        self.attempts += 1
-        self.successes += int(succeeded)
-        if self.attempts >= self.MEMORY:
-            self.attempts //= 2
-            self.successes //= 2
+    def record(self, warm: bool, seconds: float) -> None:
+        """Count one solve: whether it tried the warm start, and its time [s]."""
+        count = self.count[warm] = self.count[warm] + 1
+        weight = max(self.WEIGHT, 1.0 / count)
+        self.mean[warm] += weight * (seconds - self.mean[warm])
 
 
 def acceptance(conditioning: float) -> float:

@@ -113,8 +113,8 @@ def solve_linear(
     if warm is not None and not bet.worth_it():
         warm = None
     solution = solve_cone(problem, built, warm=warm)
-    if warm is not None:
-        bet.record(solution.status == "warm Newton")
+    if warm_start:
+        bet.record(warm is not None, solution.solve_time)
     if not solution.polished and built.name != "ipopt":
         fallback, fallback_built = backend_for(problem, "ipopt", tol, prepared.signature)
         second = solve_cone(problem, fallback)
