@@ -12,24 +12,11 @@ import tomllib
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import mechanism_strategies  # noqa: F401  (keeps Hypothesis's examples independent of imports)
 import numpy as np
 
 import clearance_pin as cp
 from clearance_pin.model.builders import JointSpec, shaft_urdf
-
-# Hypothesis (>= 6.131) draws 5% of its numbers from the literal constants of every non-test
-# module found in sys.modules at draw time. That pool grows as earlier tests import more of
-# clearance_pin and the benchmark and validation scripts, so a derandomized test drew other examples
-# in the full suite than alone (and then shrank a failure for minutes). Keep the pool empty: the
-# examples depend on the seed only. (Private API, hence the guard.)
-try:
-    from hypothesis.internal.conjecture import providers as _providers
-    from hypothesis.internal.constants_ast import Constants as _Constants
-except ImportError:  # pragma: no cover - other Hypothesis versions
-    pass
-else:
-    if hasattr(_providers, "_get_local_constants"):
-        _providers._get_local_constants = _Constants
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ROOT / "models"
