@@ -52,6 +52,7 @@ class ConeSolution:
         polished: the Newton step was accepted (the answer is verified at round-off).
         residuals: stationarity, feasibility, complementarity, dual_infeasibility.
         solve_time: wall time [s] of this solve.
+        setup_time: part of it [s] spent building the backend's solver for a new geometry.
     """
 
     y: np.ndarray
@@ -62,6 +63,7 @@ class ConeSolution:
     polished: bool
     residuals: dict = field(default_factory=dict)
     solve_time: float = 0.0
+    setup_time: float = 0.0
 
     @property
     def kkt_residual(self) -> float:
@@ -176,6 +178,7 @@ class ClarabelBackend:
         self._z_weights = np.array(weights)
         self._z_starts = np.array(starts, dtype=int)
         self._local = threading.local()  # a Clarabel solver may not be shared across threads
+        self.setup_time = 0.0  # [s] building the solver for a new geometry in the last run
 
     def run(self, problem: ReducedProblem):
         """(y, multipliers, status, iterations).
@@ -186,6 +189,8 @@ class ClarabelBackend:
         stack = problem.stack
         solvers = self._local.__dict__.setdefault("solvers", {})
         entry = solvers.pop(id(stack), None)
+        started = time.perf_counter()
+        self.setup_time = 0.0
         if entry is None or entry[0] is not stack:
             # built on a fixed cost, then updated like every later solve: Clarabel's data scaling
             # depends on the cost it was built with, and repeated solves must agree bitwise
@@ -197,6 +202,7 @@ class ClarabelBackend:
                 self._cones,
                 self._settings,
             )
+            self.setup_time = time.perf_counter() - started
         else:
             solver = entry[1]
         solver.update(q=problem.objective)
@@ -306,6 +312,7 @@ def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = Non
                 y, lam, signs, "warm Newton", 0, True, measured, time.perf_counter() - started
             )
     y, lam, status, iterations = backend.run(problem)
+    setup_time = getattr(backend, "setup_time", 0.0)
     signs = stack.sides(y)
     phi = stack.values(y, None)
     verified = active_set_solve(stack, problem.objective, y, lam, signs, accept=accept)
@@ -317,10 +324,26 @@ def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = Non
     if verified is not None:
         y, lam, signs, measured = verified
         return ConeSolution(
-            y, lam, signs, status, iterations, True, measured, time.perf_counter() - started
+            y,
+            lam,
+            signs,
+            status,
+            iterations,
+            True,
+            measured,
+            time.perf_counter() - started,
+            setup_time,
         )
     lam = np.where(phi > -ACTIVE_GAP, lam, 0.0)
     measured = residuals(stack, problem.objective, y, lam, signs)
     return ConeSolution(
-        y, lam, signs, status, iterations, False, measured, time.perf_counter() - started
+        y,
+        lam,
+        signs,
+        status,
+        iterations,
+        False,
+        measured,
+        time.perf_counter() - started,
+        setup_time,
     )

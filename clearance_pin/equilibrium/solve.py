@@ -141,7 +141,7 @@ def solve_linear(
         solution.status,
         solution.iterations,
         solution.polished,
-        built.build_time if built_now else 0.0,
+        (built.build_time if built_now else 0.0) + solution.setup_time,
         time.perf_counter() - started,
         solution.residuals,
         flat_notes,
