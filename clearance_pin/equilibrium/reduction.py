@@ -169,6 +169,10 @@ def reduce_geometry(
             contact_rows @ closure_basis, closure_basis.shape[1]
         )
         conditioning = min(conditioning, seen_conditioning)
+        if not free_w.shape[1]:
+            # every motion is seen: keep the closure basis as it is (the SVD's rotation of it
+            # would mix every unknown into every contact row and make the cone data dense)
+            seen_w = np.eye(closure_basis.shape[1])
     else:
         free_w = np.eye(closure_basis.shape[1])
         seen_w = np.zeros((closure_basis.shape[1], 0))
