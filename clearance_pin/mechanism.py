@@ -6,6 +6,7 @@ clearance or nominal configuration of the same structure.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -81,6 +82,8 @@ class Mechanism:
         if len(self.joints) != len(self.tree_joints) + len(self.loop_joints):
             raise ModelError(source, "<joints>", "joint names must be unique across tree and loops")
         self._solve_state: dict = {}
+        # placing the mechanism uses the one pin.Data: threads of solve_many take turns
+        self._placing = threading.RLock()
 
     # -- configuration ---------------------------------------------------------------------
     def configure(self, q: np.ndarray | None = None) -> Configuration:
@@ -99,16 +102,17 @@ class Mechanism:
             raise ClearancePinError(
                 f"configuration must be {self.model.nq} finite numbers, got shape {q.shape}"
             )
-        pin.framesForwardKinematics(self.model, self.data, q)
-        if self.loop_joints:
-            residual, _ = closure_residual(self, self.data)
-            if np.max(np.abs(residual), initial=0.0) > 1e-12 * self.length_scale():
-                start = self._closed_start(q)
-                q = follow_branch(self, start, q) if start is not None else close_loops(self, q)
-                self._last_closed = q.copy()
-                pin.framesForwardKinematics(self.model, self.data, q)
-        oMi = tuple(m.copy() for m in self.data.oMi)
-        oMf = tuple(m.copy() for m in self.data.oMf)
+        with self._placing:  # one pin.Data: threads take turns
+            pin.framesForwardKinematics(self.model, self.data, q)
+            if self.loop_joints:
+                residual, _ = closure_residual(self, self.data)
+                if np.max(np.abs(residual), initial=0.0) > 1e-12 * self.length_scale():
+                    start = self._closed_start(q)
+                    q = follow_branch(self, start, q) if start is not None else close_loops(self, q)
+                    self._last_closed = q.copy()
+                    pin.framesForwardKinematics(self.model, self.data, q)
+            oMi = tuple(m.copy() for m in self.data.oMi)
+            oMf = tuple(m.copy() for m in self.data.oMf)
         bMc = {}
         for loop in self.loop_joints:
             oMc = oMf[loop.frame_a] * pin.SE3(loop.rotation, np.zeros(3))
@@ -249,11 +253,13 @@ class Mechanism:
         state = dict(self.__dict__)
         state["_solve_state"] = {}
         state.pop("data", None)
+        state.pop("_placing", None)
         return state
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self.data = self.model.createData()
+        self._placing = threading.RLock()
 
     def joint(self, name: str):
         """The tree or loop joint called ``name``."""

@@ -113,3 +113,40 @@ def test_configure_stays_on_the_assembly_branch():
         theta = -np.radians(degrees)
         expected = 0.05 * np.cos(theta) + np.sqrt(0.12**2 - (0.05 * np.sin(theta)) ** 2)
         assert x == pytest.approx(expected, abs=1e-12)
+
+
+def test_results_pickle_and_travel_through_a_process_pool():
+    """Answers (whose contacts, motions and placements are computed when read) pickle with plain
+    pickle, so solve_many runs on a ProcessPoolExecutor and gives the serial answers."""
+    import pickle
+    from concurrent.futures import ProcessPoolExecutor
+
+    mechanism = cp.load(MODELS / "four_bar.urdf")
+    equilibrium = mechanism.solve()
+    copy = pickle.loads(pickle.dumps(equilibrium))
+    assert [c.label for c in copy.contacts] == [c.label for c in equilibrium.contacts]
+    assert len(copy.body_placements) == mechanism.model.njoints
+    trajectory = [mechanism.q_nominal + np.array([0.05 * k, 0.0, 0.0]) for k in range(4)]
+    with ProcessPoolExecutor(2) as pool:
+        remote = mechanism.solve_many(configurations=trajectory, executor=pool)
+    local = mechanism.solve_many(configurations=trajectory)
+    for name in mechanism.joints:
+        assert np.allclose(remote.torsors(name), local.torsors(name), rtol=0, atol=1e-15)
+
+
+def test_threads_share_one_mechanism_safely():
+    """solve_many on a thread pool gives the serial answers: placing the mechanism at a
+    configuration (which uses its one pin.Data) is done by one thread at a time (without that,
+    a geometry could be built from another thread's configuration and verified against itself)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    q0 = cp.load(MODELS / "four_bar.urdf").q_nominal
+    trajectory = [q0 + np.array([0.3 * np.sin(0.37 * k), 0.0, 0.0]) for k in range(60)]
+    serial = cp.load(MODELS / "four_bar.urdf").solve_many(configurations=trajectory)
+    threaded_mechanism = cp.load(MODELS / "four_bar.urdf")
+    with ThreadPoolExecutor(2) as pool:
+        threaded = threaded_mechanism.solve_many(
+            configurations=trajectory, executor=pool, chunks=30
+        )
+    for name in threaded_mechanism.joints:
+        assert np.allclose(threaded.torsors(name), serial.torsors(name), rtol=0, atol=1e-12)

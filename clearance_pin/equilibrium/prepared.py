@@ -337,6 +337,9 @@ class LazyMapping(Mapping):
     def __repr__(self) -> str:
         return repr(self._get())
 
+    def __reduce__(self):
+        return (dict, (self._get(),))  # pickled computed: results travel to other processes
+
 
 class LazySequence(Sequence):
     """A read-only sequence computed by ``compute()`` on first access (world placements of every
@@ -366,6 +369,9 @@ class LazySequence(Sequence):
 
     def __add__(self, other):
         return LazySequence(lambda: (*self, *other))
+
+    def __reduce__(self):
+        return (tuple, (self._get(),))  # pickled computed: results travel to other processes
 
     def __repr__(self) -> str:
         return repr(self._get())

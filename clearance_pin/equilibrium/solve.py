@@ -31,19 +31,21 @@ def prepared_geometry(mechanism, q=None) -> PreparedGeometry:
     key = ("geometry", None if q is None else np.asarray(q, dtype=float).tobytes())
     prepared = mechanism._solve_state.get(key)
     if prepared is None:
-        configuration = mechanism.configure(q)
-        maps = build_maps(
-            mechanism.model, mechanism.data, mechanism.tree_joints, mechanism.loop_joints
-        )
-        geometry = _reduced_geometry(mechanism, maps)
-        if len(mechanism._solve_state) > 64:
-            mechanism._solve_state = {
-                k: v
-                for k, v in mechanism._solve_state.items()
-                if k[0] not in ("geometry", "geometry terms")
-            }
-        prepared = PreparedGeometry(mechanism, configuration, maps, geometry)
-        mechanism._solve_state[key] = prepared
+        with mechanism._placing:  # configure and build_maps read and write mechanism.data
+            prepared = mechanism._solve_state.get(key)
+            if prepared is not None:
+                return prepared
+            configuration = mechanism.configure(q)
+            maps = build_maps(
+                mechanism.model, mechanism.data, mechanism.tree_joints, mechanism.loop_joints
+            )
+            geometry = _reduced_geometry(mechanism, maps)
+            state = mechanism._solve_state
+            if len(state) > 64:
+                for stale in [k for k in list(state) if k[0] in ("geometry", "geometry terms")]:
+                    state.pop(stale, None)
+            prepared = PreparedGeometry(mechanism, configuration, maps, geometry)
+            state[key] = prepared
     return prepared
 
 
@@ -65,8 +67,11 @@ def linear_setup(mechanism, loads, q):
     """Configuration, maps, per-body loads (with the exact model's terms) and reduced problem."""
     prepared = prepared_geometry(mechanism, q)
     configuration = prepared.configuration
-    pin.framesForwardKinematics(mechanism.model, mechanism.data, configuration.q)
-    body_loads = gather_body_loads(mechanism.model, mechanism.data, loads, mechanism.link_frames)
+    with mechanism._placing:
+        pin.framesForwardKinematics(mechanism.model, mechanism.data, configuration.q)
+        body_loads = gather_body_loads(
+            mechanism.model, mechanism.data, loads, mechanism.link_frames
+        )
     return configuration, prepared.maps, body_loads, prepared.problem(loads)
 
 
