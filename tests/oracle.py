@@ -66,6 +66,19 @@ def point_rows(point, components) -> np.ndarray:
     return rows[list(components)]
 
 
+def fixed_rows(joint) -> list:
+    """Rows (6,) of the torsor components a tree joint fixes: rigid, locked by the drive, or held
+    by a contact point without clearance."""
+    fixed = [np.eye(6)[c] for c in (*joint.clearance.rigid_components, *joint.locked_components)]
+    fixed += [
+        row
+        for c in joint.clearance.contacts
+        if c.bound == 0.0
+        for row in point_rows(c.point, c.components)
+    ]
+    return fixed
+
+
 @dataclass
 class OracleContact:
     """One contact point: its rows on the unknowns z (k, n), bound [m], shape."""
@@ -218,15 +231,7 @@ class Oracle:
     def tree_is_rigid(self) -> bool:
         """Whether no tree joint allows any motion (every component rigid, locked or held)."""
         for joint in self.mechanism.tree_joints:
-            fixed = [
-                np.eye(6)[c] for c in (*joint.clearance.rigid_components, *joint.locked_components)
-            ]
-            fixed += [
-                row
-                for c in joint.clearance.contacts
-                if c.bound == 0.0
-                for row in point_rows(c.point, c.components)
-            ]
+            fixed = fixed_rows(joint)
             if not fixed or np.linalg.matrix_rank(np.array(fixed)) < 6:
                 return False
         return True
@@ -248,15 +253,7 @@ class Oracle:
         blocks = []
         for i in range(1, model.njoints):
             joint = by_id[i]
-            fixed = [
-                np.eye(6)[c] for c in (*joint.clearance.rigid_components, *joint.locked_components)
-            ]
-            fixed += [
-                row
-                for c in joint.clearance.contacts
-                if c.bound == 0.0
-                for row in point_rows(c.point, c.components)
-            ]
+            fixed = fixed_rows(joint)
             if fixed:
                 _, sv, vt = np.linalg.svd(np.array(fixed))
                 rank = int(np.sum(sv > 1e-12 * sv[0]))

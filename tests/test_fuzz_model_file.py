@@ -355,6 +355,25 @@ def test_clearance_block_values_are_validated(text):
     assert_handled(text)
 
 
+# the template's values for a valid two-joint shaft (each test varies one of them)
+VALID_FIELDS = dict(
+    j1="I1",
+    kind1="spherical",
+    c1="1e-4",
+    l1="0.04",
+    a1="1 0 0",
+    kind2="cylindrical",
+    fa="ground_I2",
+    fb="shaft_I2",
+    c2="1e-4",
+    l2="0.04",
+    a2="1 0 0",
+    link="shaft",
+    p="0.3 0 0",
+    f="1 1 1",
+)
+
+
 @pytest.mark.parametrize(
     "attribute, value, element",
     [
@@ -373,22 +392,7 @@ def test_clearance_block_values_are_validated(text):
 )
 def test_each_bad_value_names_its_element(attribute, value, element):
     """A single bad value is rejected with a ModelError naming the element it sits on."""
-    fields = dict(
-        j1="I1",
-        kind1="spherical",
-        c1="1e-4",
-        l1="0.04",
-        a1="1 0 0",
-        kind2="cylindrical",
-        fa="ground_I2",
-        fb="shaft_I2",
-        c2="1e-4",
-        l2="0.04",
-        a2="1 0 0",
-        link="shaft",
-        p="0.3 0 0",
-        f="1 1 1",
-    )
+    fields = dict(VALID_FIELDS)
     key = {
         "radial_clearance": "c1",
         "length": "l2",
@@ -406,22 +410,7 @@ def test_each_bad_value_names_its_element(attribute, value, element):
 
 def test_the_unmutated_template_and_models_solve():
     """The fuzzing bases themselves load and solve (so rejections are caused by the mutations)."""
-    fields = dict(
-        j1="I1",
-        kind1="spherical",
-        c1="1e-4",
-        l1="0.04",
-        a1="1 0 0",
-        kind2="cylindrical",
-        fa="ground_I2",
-        fb="shaft_I2",
-        c2="1e-4",
-        l2="0.04",
-        a2="1 0 0",
-        link="shaft",
-        p="0.3 0 0",
-        f="1 1 1",
-    )
+    fields = dict(VALID_FIELDS)
     assert outcome(TEMPLATE.format(**fields)) == "solved"
     for text in MODELS.values():
         assert outcome(text) == "solved"

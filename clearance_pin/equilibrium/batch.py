@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import ClearancePinError
 from ..progress import Progress
-from .batch_newton import batched_newton
+from .batch_newton import batched_newton, stacked_evaluation
 from .cone_solver import acceptance
 from .kkt import UNLOADED
 from .reduction import loaded_problem
@@ -290,10 +290,7 @@ def _unique(stack, seed, y, multipliers, verified):
     largest = multipliers.max(axis=1, initial=0.0)
     loaded = multipliers > UNLOADED * largest[:, None]
     verified = verified & np.all(loaded == loaded_seed, axis=1)
-    image = y @ stack.matrix.T
-    weights = np.where(stack.row_is_norm, 2.0 * image, seed.signs[stack.row_contact])
-    gradients = np.add.reduceat(stack.matrix[None] * weights[:, :, None], stack.starts, axis=1)
-    gradients *= loaded[:, :, None]
+    gradients = stacked_evaluation(stack, y, seed.signs)[1] * loaded[:, :, None]
     row_weights = np.where(stack.row_is_norm, 2.0 * multipliers[:, stack.row_contact], 0.0)
     hessians = np.matmul(stack.matrix.T[None] * row_weights[:, None, :], stack.matrix)
     rows = np.concatenate([gradients, hessians], axis=1)

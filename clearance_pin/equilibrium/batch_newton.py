@@ -92,12 +92,19 @@ def _minimum_norm_forces(gradients, objectives, lam):
     return np.where(use_least[:, None], np.maximum(least, 0.0), lam)
 
 
-def _verify(stack: StackedContacts, objectives, y, multipliers, signs, accept):
+def stacked_evaluation(stack: StackedContacts, y: np.ndarray, signs: np.ndarray):
+    """For every case, phi of every contact (slabs on either side, |.|) and the gradients of
+    every contact on the sides ``signs``: ((N, m), (N, m, r)), as :meth:`.kkt.StackedContacts.evaluate`."""
     image = y @ stack.matrix.T
     squares = np.add.reduceat(image * image, stack.starts, axis=1)
     phi = np.where(stack.is_norm, squares, np.abs(image[:, stack.starts])) - 1.0
     weights = np.where(stack.row_is_norm, 2.0 * image, signs[stack.row_contact])
     gradients = np.add.reduceat(stack.matrix[None] * weights[:, :, None], stack.starts, axis=1)
+    return phi, gradients
+
+
+def _verify(stack: StackedContacts, objectives, y, multipliers, signs, accept):
+    phi, gradients = stacked_evaluation(stack, y, signs)
     stationarity = np.abs(objectives + np.einsum("nmr,nm->nr", gradients, multipliers)).max(axis=1)
     feasibility = np.maximum(phi, 0.0).max(axis=1)
     complementarity = np.abs(multipliers * phi).max(axis=1)

@@ -154,26 +154,21 @@ class ClarabelBackend:
         settings.max_iter = 100
         settings.presolve_enable = False  # keeps the data updatable (a new load updates q only)
         self._settings = settings
-        cones, rows = [], 0
-        for shape, k in shapes:
-            if shape == "norm":
-                cones.append(clarabel.SecondOrderConeT(k + 1))
-                rows += k + 1
-            else:
-                cones.append(clarabel.NonnegativeConeT(2))
-                rows += 2
-        self._cones = cones
-        self._rows = rows
-        self._zero = sparse.csc_matrix((size, size))
-        b, weights, starts = [], [], []
+        # per contact: its cone, its rows of b, and how its dual variables give the multiplier
+        # (d||Py||/dy = (1/2) d||Py||^2/dy on the sphere; a slab's two sides add)
+        cones, b, weights, starts = [], [], [], []
         for shape, k in shapes:
             starts.append(len(b))
             if shape == "norm":
+                cones.append(clarabel.SecondOrderConeT(k + 1))
                 b.extend([1.0] + [0.0] * k)
                 weights.extend([0.5] + [0.0] * k)
             else:
+                cones.append(clarabel.NonnegativeConeT(2))
                 b.extend([1.0, 1.0])
                 weights.extend([1.0, 1.0])
+        self._cones = cones
+        self._zero = sparse.csc_matrix((size, size))
         self._b = np.array(b)
         self._z_weights = np.array(weights)
         self._z_starts = np.array(starts, dtype=int)
@@ -211,7 +206,6 @@ class ClarabelBackend:
             del solvers[next(iter(solvers))]
         result = solver.solve()
         z = np.asarray(result.z, dtype=float)
-        # d||Py||/dy = (1/2) d||Py||^2/dy on the sphere; a slab's two sides add
         multipliers = np.add.reduceat(z * self._z_weights, self._z_starts)
         return (
             np.asarray(result.x, dtype=float),

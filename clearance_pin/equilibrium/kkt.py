@@ -118,12 +118,6 @@ class StackedContacts:
         slab = np.abs(slab) if signs is None else signs * slab
         return np.where(self.is_norm, squares, slab) - 1.0
 
-    def gradients(self, y: np.ndarray, signs: np.ndarray) -> np.ndarray:
-        """Gradients of phi_j as rows, (m, r)."""
-        image = self.matrix @ y
-        weights = np.where(self.row_is_norm, 2.0 * image, signs[self.row_contact])
-        return np.add.reduceat(self.matrix * weights[:, None], self.starts, axis=0)
-
     def evaluate(self, y: np.ndarray, signs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(phi_j on the sides ``signs``, gradients (m, r)) from one product P y."""
         image = self.matrix @ y

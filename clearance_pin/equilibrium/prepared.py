@@ -281,7 +281,7 @@ def _geometry_terms(mechanism, geometry) -> dict:
     )
     bounds = np.array([c.contact.bound for c in contacts])
     row_bounds = bounds[stack.row_contact]
-    row_is_norm = stack.is_norm[stack.row_contact]
+    row_is_norm = stack.row_is_norm
     play = float(statistics.median(scale.tolist())) if scale.size else 0.0
     length = mechanism.length_scale()
     stack.projection_hints = mechanism._solve_state.setdefault(
