@@ -11,11 +11,14 @@ Build once, solve many::
 
 from .equilibrium.result import Contact, Equilibrium
 from .errors import (
+    ArgumentError,
     ClearancePinError,
+    ClearancePinWarning,
     ConditioningWarning,
     LoadError,
     ModelError,
     SolverError,
+    SuspectValueWarning,
     UnboundedLoadError,
 )
 from .mechanism import Mechanism
@@ -34,9 +37,12 @@ __all__ = [
     "Torque",
     "Gravity",
     "ClearancePinError",
-    "ConditioningWarning",
+    "ArgumentError",
     "ModelError",
     "LoadError",
     "UnboundedLoadError",
     "SolverError",
+    "ClearancePinWarning",
+    "SuspectValueWarning",
+    "ConditioningWarning",
 ]

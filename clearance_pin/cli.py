@@ -1,6 +1,6 @@
 """The ``clearance-pin`` command.
 
-    clearance-pin solve MODEL [--exact] [--json] [--check] [--gravity on|off]
+    clearance-pin solve MODEL [--exact] [--json] [--check] [--gravity on|off] [--package-dir DIR]
     clearance-pin validate [--json FILE] [--check]
     clearance-pin tolerance MODEL ...      (see ``clearance-pin tolerance --help``)
 
@@ -21,7 +21,7 @@ from .errors import ClearancePinError, ModelError, UnboundedLoadError
 def _solve(args: argparse.Namespace) -> int:
     from .model.model_file import load
 
-    mechanism = load(args.model)
+    mechanism = load(args.model, package_dirs=args.package_dir)
     gravity = {"on": True, "off": False, None: None}[args.gravity]
     equilibrium = mechanism.solve(exact=args.exact, gravity=gravity)
     report = equilibrium.check() if args.check else None
@@ -75,6 +75,14 @@ def build_parser() -> argparse.ArgumentParser:
     solve.add_argument("--json", action="store_true", help="print JSON instead of a table")
     solve.add_argument("--check", action="store_true", help="measure the pose with coal")
     solve.add_argument("--gravity", choices=["on", "off"], help="override the model's gravity")
+    solve.add_argument(
+        "--package-dir",
+        action="append",
+        type=Path,
+        metavar="DIR",
+        help="where collision meshes are looked for (package://PKG/FILE is DIR/PKG/FILE; "
+        "repeatable; ROS_PACKAGE_PATH is searched too); only --check reads meshes",
+    )
     solve.set_defaults(run=_solve)
     validate = commands.add_parser("validate", help="the paper's cases, published vs computed")
     validate.add_argument("--json", type=Path, help="write the results to this file")

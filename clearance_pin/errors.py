@@ -3,6 +3,8 @@
 Every error the library raises on purpose derives from :class:`ClearancePinError` and carries its
 data as attributes, so that callers (scripts, planners, tests) can act on them without parsing text.
 Errors of Pinocchio, CasADi or coal are caught at the library's edge and re-raised as one of these.
+Every warning it gives derives from :class:`ClearancePinWarning` (itself a ``UserWarning``), so that
+``warnings.simplefilter("error", ClearancePinWarning)`` turns them all into errors.
 """
 
 from __future__ import annotations
@@ -26,6 +28,33 @@ class ModelError(ClearancePinError, ValueError):
         self.element = element
         self.problem = problem
         super().__init__(f"{source}: {element}: {problem}")
+
+
+class ArgumentError(ClearancePinError, ValueError):
+    """An argument of a library call has the wrong kind or value.
+
+    Attributes:
+        argument: the argument, e.g. ``"gravity"`` or ``"configurations[3]"``.
+        expected: what it must be, e.g. ``"True, False, None or a clearance_pin.Gravity"``.
+        found: the value given.
+        note: what is wrong with it, when its repr does not say (e.g. its shape), or None.
+    """
+
+    def __init__(self, argument: str, expected: str, found, note: str | None = None):
+        self.argument = argument
+        self.expected = expected
+        self.found = found
+        self.note = note
+        detail = f" ({note})" if note else ""
+        super().__init__(f"{argument}: expected {expected}, found {_short_repr(found)}{detail}")
+
+    def __reduce__(self):
+        return (type(self), (self.argument, self.expected, self.found, self.note))
+
+
+def _short_repr(value, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 class LoadError(ClearancePinError, ValueError):
@@ -75,6 +104,16 @@ class UnsupportedError(ClearancePinError, NotImplementedError):
     """A feature combination that clearance_pin does not handle (named in the message)."""
 
 
-class ConditioningWarning(UserWarning):
+class ClearancePinWarning(UserWarning):
+    """Base class of every warning given by clearance_pin."""
+
+
+class SuspectValueWarning(ClearancePinWarning):
+    """A value that is valid but unlikely to be meant, most often a unit mistake (a clearance in
+    mm, an angle in degrees, a tolerance as wide as its size): the element and the numbers are in
+    the message. The thresholds are in :mod:`clearance_pin.model.plausibility`."""
+
+
+class ConditioningWarning(ClearancePinWarning):
     """The loop closure is nearly singular (a toggle or dead-centre position): the
     small-displacement answer loses accuracy roughly as 1 / conditioning."""

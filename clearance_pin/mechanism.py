@@ -85,6 +85,22 @@ class Mechanism:
         # placing the mechanism uses the one pin.Data: threads of solve_many take turns
         self._placing = threading.RLock()
 
+    @property
+    def collision_model(self):
+        """``pin.GeometryModel`` of the URDF's collision geometry, or None without any.
+
+        Built on first use when the mechanism was given a builder (a callable of the model, as
+        :class:`~clearance_pin.model.model_file.CollisionGeometry`): meshes are read only when a
+        check needs them, and a missing mesh raises a ModelError naming it then.
+        """
+        if callable(self._collision_model):
+            self._collision_model = self._collision_model(self.model)
+        return self._collision_model
+
+    @collision_model.setter
+    def collision_model(self, geometry) -> None:
+        self._collision_model = geometry
+
     # -- configuration ---------------------------------------------------------------------
     def configure(self, q: np.ndarray | None = None) -> Configuration:
         """Place the mechanism at ``q`` (default: nominal), closing every loop.
@@ -200,8 +216,9 @@ class Mechanism:
             :class:`~clearance_pin.equilibrium.result.Equilibrium`.
         """
 
-        if exact not in (True, False, "auto"):
-            raise ClearancePinError(f"exact must be True, False or 'auto', got {exact!r}")
+        from .arguments import check_solve
+
+        q = check_solve(self, loads, exact, q, gravity, tol, backend, accuracy, warm_start)
         gravity_load = False if gravity is False else gravity
         resolved = self.resolve_loads(loads, gravity_load)
         try:
@@ -244,8 +261,10 @@ class Mechanism:
         """Many equilibria, warm-started in sequence; see
         :func:`clearance_pin.equilibrium.batch.solve_many` (options: exact, gravity, tol, backend,
         executor, chunks, errors, progress)."""
+        from .arguments import check_solve_many
         from .equilibrium.batch import solve_many
 
+        check_solve_many(self, loads, configurations, options)
         return solve_many(self, loads, configurations, **options)
 
     def __getstate__(self) -> dict:

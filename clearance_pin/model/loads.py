@@ -13,11 +13,13 @@ the loaded part.
 
 from __future__ import annotations
 
+import functools
+import inspect
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import LoadError
+from ..errors import ArgumentError, LoadError
 
 
 def _vector3(label: str, name: str, value) -> np.ndarray:
@@ -33,6 +35,40 @@ def _vector3(label: str, name: str, value) -> np.ndarray:
     return array
 
 
+def _checked_arguments(cls):
+    """Make the dataclass's ``__init__`` raise :class:`ArgumentError` naming the valid arguments
+    (instead of Python's TypeError) for a missing, extra or unknown one, e.g. ``Torque(value=...)``."""
+    init = cls.__init__
+    signature = inspect.signature(init)
+    valid = [name for name in signature.parameters if name != "self"]
+
+    @functools.wraps(init)
+    def checked(self, *args, **kwargs):
+        try:
+            signature.bind(self, *args, **kwargs)
+        except TypeError as exc:
+            expected = f"the arguments {', '.join(valid)}"
+            unknown = {k: v for k, v in kwargs.items() if k not in valid}
+            if unknown:
+                name = next(iter(unknown))
+                raise ArgumentError(
+                    f"{cls.__name__}({name}=...)", expected, unknown, "unknown keyword"
+                ) from None
+            raise ArgumentError(
+                f"{cls.__name__}(...)", expected, (args, kwargs), str(exc)
+            ) from None
+        init(self, *args, **kwargs)
+
+    cls.__init__ = checked
+    return cls
+
+
+def _check_link(kind: str, link) -> None:
+    if not isinstance(link, str) or not link:
+        raise ArgumentError(f"{kind}(link)", "a link name (a non-empty str)", link)
+
+
+@_checked_arguments
 @dataclass(frozen=True)
 class PointForce:
     """A force [N] (world axes) applied at ``point`` [m] of ``link`` (in the link frame)."""
@@ -42,11 +78,13 @@ class PointForce:
     point: np.ndarray = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
+        _check_link("PointForce", self.link)
         label = f"force on {self.link!r}"
         object.__setattr__(self, "force", _vector3(label, "force", self.force))
         object.__setattr__(self, "point", _vector3(label, "point", self.point))
 
 
+@_checked_arguments
 @dataclass(frozen=True)
 class Torque:
     """A torque [N m] (world axes) applied to ``link``."""
@@ -55,11 +93,13 @@ class Torque:
     torque: np.ndarray
 
     def __post_init__(self) -> None:
+        _check_link("Torque", self.link)
         object.__setattr__(
             self, "torque", _vector3(f"torque on {self.link!r}", "torque", self.torque)
         )
 
 
+@_checked_arguments
 @dataclass(frozen=True)
 class Gravity:
     """Gravity acting on every body's URDF inertial: acceleration [m/s^2] in world axes."""

@@ -5,18 +5,29 @@ The URDF holds the kinematic tree at its nominal configuration; the ``<clearance
 driven joints, nominal joint values and loads. Every problem found is raised as a
 :class:`~clearance_pin.errors.ModelError` naming the file, the element and the problem; nothing is
 half-loaded.
+
+Suspect values (a clearance in mm, a nominal value outside the URDF limits, a tolerance as wide as
+its size) load, with a :class:`~clearance_pin.errors.SuspectValueWarning`
+(:mod:`clearance_pin.model.plausibility`). Collision meshes are read only when a check first needs
+them (:class:`CollisionGeometry`), so a solve works on a URDF whose meshes are elsewhere.
 """
 
 from __future__ import annotations
 
+import codecs
 import math
+import os
+import re
 import xml.etree.ElementTree as ET
+import xml.parsers.expat
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from ..errors import LoadError, ModelError
+from ..errors import ArgumentError, LoadError, ModelError
+from . import plausibility
 from .clearance import KINDS, Clearance, ideal
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
 from .loads import Gravity, PointForce, Torque
@@ -57,31 +68,59 @@ IDEAL_KIND_OF_URDF = {
 }
 
 
-def load(path: str | Path):
+def load(path: str | Path, package_dirs=None):
     """Read a mechanism from a model file (URDF + ``<clearance_pin>``).
 
     Args:
-        path: the ``.urdf`` file.
+        path: the ``.urdf`` file, in the encoding its XML declaration names (UTF-8 without one).
+        package_dirs: directories in which collision meshes are looked for: a ``package://pkg/f``
+            mesh is ``<dir>/pkg/f``, a relative one ``<dir>/f``; the entries of the environment
+            variable ROS_PACKAGE_PATH and the file's own directory are searched too. Meshes are
+            read only when a check needs them (``Equilibrium.check``), never to solve.
 
     Returns:
         :class:`~clearance_pin.mechanism.Mechanism`.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ArgumentError("path", "a file path (str or pathlib.Path)", path)
     path = Path(path)
     try:
-        text = path.read_text()
+        data = path.read_bytes()
     except OSError as exc:
         raise ModelError(str(path), "<file>", f"cannot be read: {exc.strerror or exc}") from None
-    return loads(text, source=str(path), mesh_dir=path.parent)
+    return _read(data, str(path), path.parent, package_dirs)
 
 
-def loads(text: str, source: str = "<string>", mesh_dir: Path | None = None):
-    """Read a mechanism from the text of a model file (see :func:`load`)."""
+def loads(
+    text: str | bytes, source: str = "<string>", mesh_dir: Path | None = None, package_dirs=None
+):
+    """Read a mechanism from the text of a model file (see :func:`load`).
+
+    Args:
+        text: the file's text (str), or its bytes, decoded as its XML declaration says.
+        source: the name used in messages.
+        mesh_dir: directory of relative mesh paths (the file's directory).
+        package_dirs: as in :func:`load`.
+    """
+    return _read(text, source, mesh_dir, package_dirs)
+
+
+def _read(text, source: str, mesh_dir, package_dirs):
     from ..mechanism import Mechanism
 
+    if isinstance(text, (bytes, bytearray)):
+        text = decode_xml(bytes(text), source)
+    elif not isinstance(text, str):
+        raise ArgumentError("text", "the model file's text (str or bytes)", text)
+    else:
+        text = _without_declaration(text)
+    directories = _package_dirs(package_dirs)
+    if mesh_dir is not None:
+        directories = (*directories, str(mesh_dir))
     reader = _Reader(text, source)
     model = reader.pin_model()
     block = reader.block()
-    collision = reader.collision_model(model, mesh_dir)
+    collision = CollisionGeometry(text, source, directories) if reader.has_collision() else None
     tree_joints, q = reader.tree_joints(model, block)
     loop_joints = reader.loop_joints(model, block)
     forces, gravity = reader.loads(model, block)
@@ -102,10 +141,121 @@ def loads(text: str, source: str = "<string>", mesh_dir: Path | None = None):
         collision_model=collision,
     )
     mechanism.dimensions = dimensions
+    # stacklevel 4: the warning points at the caller of load / loads
+    plausibility.warn_large_clearances(mechanism, stacklevel=4)
+    plausibility.warn_nominal_values(mechanism, reader.nominal_given, stacklevel=4)
+    plausibility.warn_wide_tolerances(mechanism, dimensions, stacklevel=4)
     if loop_joints:
         mechanism.q_nominal = mechanism.configure().q  # close the loops now: errors at load time
         mechanism._nominal_closed = mechanism.q_nominal.copy()
     return mechanism
+
+
+_DECLARATION = re.compile(r"^\ufeff?\s*<\?xml\b[^>]*\?>")
+_BOMS = (
+    (codecs.BOM_UTF32_LE, "utf-32"),
+    (codecs.BOM_UTF32_BE, "utf-32"),
+    (codecs.BOM_UTF8, "utf-8-sig"),
+    (codecs.BOM_UTF16_LE, "utf-16"),
+    (codecs.BOM_UTF16_BE, "utf-16"),
+)
+
+
+def decode_xml(data: bytes, source: str = "<string>") -> str:
+    """The text of an XML document: decoded as its byte-order mark or its declaration says
+    (UTF-8 without either), with the declaration removed (Pinocchio's parser reads UTF-8 text)."""
+    declared: list[str] = []
+    parser = xml.parsers.expat.ParserCreate()
+    parser.XmlDeclHandler = lambda version, encoding, standalone: declared.append(encoding)
+    try:
+        parser.Parse(data, True)
+    except xml.parsers.expat.ExpatError as exc:
+        raise ModelError(source, "<xml>", f"malformed XML: {exc}") from None
+    encoding = next((name for bom, name in _BOMS if data.startswith(bom)), None)
+    encoding = encoding or (declared[0] if declared and declared[0] else "utf-8")
+    try:
+        text = data.decode(encoding)
+    except (UnicodeDecodeError, LookupError) as exc:
+        raise ModelError(source, "<xml>", f"cannot be decoded as {encoding}: {exc}") from None
+    return _without_declaration(text)
+
+
+def _without_declaration(text: str) -> str:
+    return _DECLARATION.sub("", text, count=1)
+
+
+def _package_dirs(package_dirs) -> tuple[str, ...]:
+    """``package_dirs`` as a tuple of existing directories (one str or Path is one directory)."""
+    if package_dirs is None:
+        return ()
+    if isinstance(package_dirs, (str, os.PathLike)):
+        package_dirs = [package_dirs]
+    try:
+        entries = list(package_dirs)
+    except TypeError:
+        raise ArgumentError(
+            "package_dirs", "a list of directories (str or pathlib.Path)", package_dirs
+        ) from None
+    directories = []
+    for index, entry in enumerate(entries):
+        if not isinstance(entry, (str, os.PathLike)) or not Path(entry).is_dir():
+            raise ArgumentError(f"package_dirs[{index}]", "an existing directory", entry)
+        directories.append(str(entry))
+    return tuple(directories)
+
+
+MESH_NOT_FOUND = re.compile(r"Mesh (\S+) could not be found")
+
+
+@dataclass(frozen=True)
+class CollisionGeometry:
+    """The URDF's collision geometry, built (meshes read) when first asked for.
+
+    Attributes:
+        text: the URDF text.
+        source: the file, for messages.
+        package_dirs: directories searched for meshes, before those of ROS_PACKAGE_PATH.
+    """
+
+    text: str
+    source: str
+    package_dirs: tuple[str, ...]
+
+    def __call__(self, model: pin.Model) -> pin.GeometryModel:
+        """The ``pin.GeometryModel`` of the ``<collision>`` elements of ``model``'s URDF."""
+        try:
+            return pin.buildGeomFromUrdfString(
+                model, self.text, pin.GeometryType.COLLISION, package_dirs=list(self.package_dirs)
+            )
+        except (RuntimeError, ValueError) as exc:
+            raise self._error(str(exc)) from None
+
+    def _error(self, message: str) -> ModelError:
+        missing = MESH_NOT_FOUND.search(message)
+        if missing is None:
+            return ModelError(self.source, "<collision>", f"cannot be loaded: {message}")
+        filename = missing.group(1).rstrip(".")
+        element = f"<collision> <mesh filename='{filename}'>"
+        root = ET.fromstring(self.text)
+        for link in root.findall("link"):
+            names = [m.get("filename") for m in link.findall("collision/geometry/mesh")]
+            if filename in names:
+                element = f"<link name='{link.get('name')}'> {element}"
+                break
+        searched = [*self.package_dirs, *_ros_package_path()]
+        return ModelError(
+            self.source,
+            element,
+            f"mesh file not found (searched: {', '.join(searched) or 'nothing'}). A "
+            "package://<pkg>/<file> mesh is looked for as <dir>/<pkg>/<file>, a relative one as "
+            "<dir>/<file>, for every <dir> of package_dirs=[...] in clearance_pin.load "
+            "(--package-dir in the command line), of the ROS_PACKAGE_PATH environment variable "
+            "and the URDF's own directory. Only the coal check reads meshes; solving does not.",
+        )
+
+
+def _ros_package_path() -> list[str]:
+    return [d for d in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if d]
 
 
 class _Reader:
@@ -170,6 +320,16 @@ class _Reader:
                     raise ModelError(
                         self.source, label, f"<{tag} link='{link}'> is not a link of the URDF"
                     )
+            mimic = element.find("mimic")
+            if mimic is not None:
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"a mimic joint (it follows joint {mimic.get('joint')!r}): clearance_pin "
+                    "does not model mimic couplings, and Pinocchio would make it an independent "
+                    "joint. Remove the <mimic> element (an independent joint: drive it or give it "
+                    "a clearance) or make the joint fixed.",
+                )
             origin = element.find("origin")
             for attribute in ("xyz", "rpy"):
                 if origin is not None and origin.get(attribute) is not None:
@@ -209,16 +369,8 @@ class _Reader:
                 self.source, "<robot>", f"Pinocchio cannot build the URDF: {exc}"
             ) from None
 
-    def collision_model(self, model: pin.Model, mesh_dir: Path | None):
-        if self.root.find(".//collision") is None:
-            return None
-        try:
-            dirs = [str(mesh_dir)] if mesh_dir is not None else []
-            return pin.buildGeomFromUrdfString(
-                model, self.text, pin.GeometryType.COLLISION, package_dirs=dirs
-            )
-        except (RuntimeError, ValueError) as exc:
-            raise ModelError(self.source, "<collision>", f"cannot be loaded: {exc}") from None
+    def has_collision(self) -> bool:
+        return self.root.find("link/collision") is not None
 
     def block(self) -> ET.Element:
         blocks = self.root.findall(BLOCK)
@@ -275,6 +427,7 @@ class _Reader:
             declared[name] = element
         q = pin.neutral(model)
         joints = []
+        self.nominal_given: dict[int, float] = {}  # joint id -> the file's q [rad or m]
         for joint_id in range(1, model.njoints):
             name = model.names[joint_id]
             urdf_type = self.urdf_joints[name].get("type") if name in self.urdf_joints else None
@@ -315,9 +468,9 @@ class _Reader:
                     self.source, label, "a floating joint has no single motion to drive"
                 )
             if element is not None and element.get("q") is not None:
-                _set_nominal(
-                    self.source, label, model, joint_id, q, _number(self.source, element, "q")
-                )
+                value = _number(self.source, element, "q")
+                self.nominal_given[joint_id] = value
+                _set_nominal(self.source, label, model, joint_id, q, value)
             joints.append(TreeJoint(name, joint_id, clearance, rotation_x_to(axis), motion, driven))
         return tuple(joints), q
 
