@@ -12,7 +12,9 @@ Metrics (written with ``--json``):
   (tests/oracle.py); ``max_rel_error``: the largest relative error among those that agree
   (energy, torsors in loaded directions relative to the largest clearance, penetration, statics);
   ``details.random_outcomes``: every verdict kind (``FAIL-*`` are disagreements, ``known-*``,
-  ``no-work-*`` and ``ambiguous-closure`` are known library issues, ``diagnosed`` is a SolverError);
+  ``no-work-*`` and ``ambiguous-closure`` are known library issues, ``diagnosed`` is a SolverError;
+  ``agree-flat`` / ``agree-certified`` include answers that the oracle could not match to 1e-8 in
+  energy but verified by a KKT certificate in its own formulation, tests/test_corpus_oracle.py);
 - ``scale_sweep``: per clearance/length ratio, the largest relative error of the closed forms (both
   formulations) and of the paper cases (oracle and homogeneity);
 - ``degenerate_cases`` / ``degenerate_diagnosed``: degenerate mechanisms run, and how many were
@@ -76,7 +78,7 @@ def random_mechanisms(examples: int, seed: int) -> dict:
         except Exception as exc:
             kind, verdict = f"EXCEPTION {type(exc).__name__}", None
         outcomes[kind] = outcomes.get(kind, 0) + 1
-        if kind in ("agree", "agree-flat", "agree-energy"):
+        if kind in ("agree", "agree-flat", "agree-energy", "agree-certified"):
             errors = [verdict.errors[k] for k in ERROR_KEYS]
             if kind == "agree":
                 errors.append(verdict.errors["torsor"])
