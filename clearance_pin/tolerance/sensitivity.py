@@ -50,7 +50,12 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ClearancePinError, ConditioningWarning, ModelError
-from ..kinematics.closure import closure_residual, passive_velocity_indices
+from ..kinematics.closure import (
+    closure_residual,
+    idle_motion_count,
+    passive_basis,
+    passive_velocity_indices,
+)
 from ..model.clearance import ALPHA
 from .dimensions import Dimension, affected_frames
 from .statistics import rss_band, worst_case_band
@@ -142,8 +147,10 @@ class Sensitivities:
         values: nominal output values, shape (n_out,) [m or rad] (orientation: the world
             rotation-vector component, the frame angle for a planar motion).
         matrix: ``S`` [output/dimension], shape (n_out, n_dim).
-        passive: ``S_q`` [rad/m or -] of the passive joints, shape (n_passive, n_dim).
-        passive_indices: velocity indices of the passive joints, length n_passive.
+        passive: ``S_q`` [rad/m or -] of the passive motions
+            (:func:`~clearance_pin.kinematics.closure.passive_motions`: every free component of
+            the tree joints in loops, spherical ones included), shape (n_passive, n_dim).
+        passive_indices: velocity indices of the 1-DOF passive joints in loops.
         conditioning: smallest / largest singular value of the (length-scaled) ``Phi_q``, 1 for
             an open chain; near 0 at a singular position.
     """
@@ -249,11 +256,13 @@ def sensitivities(
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
     pin.computeJointJacobians(model, data, q)
-    passive = loop_passive_indices(mechanism)
+    basis = passive_basis(mechanism)
     masks = [affected_frames(model, d) for d in dimensions]
-    s_passive, conditioning = _passive_sensitivities(mechanism, data, dimensions, passive, masks)
-    dq = np.zeros((model.nv, len(dimensions)))
-    dq[passive] = s_passive
+    s_passive, conditioning, idle = _passive_sensitivities(
+        mechanism, data, dimensions, basis, masks
+    )
+    dq = basis @ s_passive
+    _refuse_idle_outputs(model, data, outputs, basis @ idle)
     matrix = (
         np.vstack([_output_row(model, data, dimensions, o, dq, masks) for o in outputs])
         if outputs
@@ -266,7 +275,7 @@ def sensitivities(
         output_values(model, data, q, outputs),
         matrix,
         s_passive,
-        tuple(passive),
+        tuple(loop_passive_indices(mechanism)),
         conditioning,
     )
 
@@ -286,12 +295,15 @@ def loop_passive_indices(mechanism) -> list[int]:
 
 
 def _passive_sensitivities(
-    mechanism, data: pin.Data, dimensions, passive, masks
-) -> tuple[np.ndarray, float]:
-    """``S_q = -Phi_q^+ Phi_d`` (least squares on length-scaled rows) and the conditioning."""
+    mechanism, data: pin.Data, dimensions, basis: np.ndarray, masks
+) -> tuple[np.ndarray, float, np.ndarray]:
+    """``S_q = -Phi_q^+ Phi_d`` (least squares on length-scaled rows, minimum norm), the
+    conditioning, and the idle passive motions (null space of ``Phi_q``: a rod between two ball
+    joints spins freely), shape (n_passive, n_idle)."""
     model = mechanism.model
+    n_passive = basis.shape[1]
     if not mechanism.loop_joints:
-        return np.zeros((0, len(dimensions))), 1.0
+        return np.zeros((0, len(dimensions))), 1.0, np.zeros((0, 0))
     length = mechanism.length_scale()
     _, selections = closure_residual(mechanism, data)
     phi_q, phi_d, weights = [], [], []
@@ -303,16 +315,20 @@ def _passive_sensitivities(
         d_ab = dimension_columns(model, data, dimensions, loop.frame_b, masks) - dimension_columns(
             model, data, dimensions, loop.frame_a, masks
         )
-        phi_q.append((to_c @ j_ab)[rows][:, passive])
+        phi_q.append((to_c @ j_ab)[rows] @ basis)
         phi_d.append((to_c @ d_ab)[rows])
         weights.append([1.0 if c < ALPHA else length for c in rows])
     w = np.concatenate(weights)[:, None]
     a, b = w * np.vstack(phi_q), w * np.vstack(phi_d)
-    if not passive:
-        a = np.zeros((a.shape[0], 0))
-    singular = np.linalg.svd(a, compute_uv=False) if a.size else np.zeros(0)
-    conditioning = float(singular[-1] / singular[0]) if singular.size and singular[0] > 0 else 0.0
-    if a.shape[1] and (singular.size < a.shape[1] or conditioning < SINGULAR_TOL):
+    # idle motions are structural (counted at the nominal configuration); a rank lost beyond
+    # them is a singular position
+    idle_count = idle_motion_count(mechanism) if n_passive else 0
+    expected = n_passive - idle_count
+    _, singular, vt = np.linalg.svd(a, full_matrices=True) if a.size else (None, np.zeros(0), None)
+    idle = vt[expected:].T if a.size else np.zeros((n_passive, 0))
+    kept = singular[:expected]
+    conditioning = float(kept[-1] / kept[0]) if kept.size and kept[0] > 0 else 0.0
+    if expected and (kept.size < expected or conditioning < SINGULAR_TOL):
         raise ClearancePinError(
             f"{mechanism.source}: singular position (conditioning "
             f"{conditioning:.2e} of the loop closure): the sensitivities are "
@@ -325,6 +341,8 @@ def _passive_sensitivities(
             ConditioningWarning,
             stacklevel=3,
         )
+    if idle.shape[1]:  # minimum norm: no part along the idle motions
+        a = a @ (np.eye(n_passive) - idle @ idle.T)
     s = np.linalg.lstsq(a, -b, rcond=None)[0] if a.shape[1] else np.zeros((0, b.shape[1]))
     misfit = np.linalg.norm(a @ s + b, axis=0)
     scale = np.maximum(np.linalg.norm(b, axis=0), 1e-300)
@@ -338,7 +356,29 @@ def _passive_sensitivities(
                 f"planar loop; {misfit[k] / scale[k]:.1e} of its effect is left): "
                 "only the joints' play could absorb it; remove it or change direction",
             )
-    return s, conditioning
+    return s, conditioning, idle
+
+
+def _refuse_idle_outputs(model, data, outputs, idle: np.ndarray) -> None:
+    """An output that an idle motion moves (the orientation of a rod spinning freely between
+    two ball joints) is not determined by the loop closure: refuse it by name."""
+    if not idle.size:
+        return
+    for output in outputs:
+        if output.kind == "joint":
+            moved = np.abs(idle[model.joints[output.index].idx_v])
+        else:
+            twist = pin.getFrameJacobian(model, data, output.index, pin.WORLD) @ idle
+            point = data.oMf[output.index].translation
+            velocity = twist[:3] - np.cross(point, twist[3:].T).T
+            moving = twist[3:] if output.kind == "orientation" else velocity
+            moved = np.abs(moving[output.component])
+        if np.max(moved, initial=0.0) > 1e-9 * max(1.0, float(np.max(np.abs(idle)))):
+            raise ClearancePinError(
+                f"output {output.name!r} moves with an idle motion of the mechanism (a part "
+                "that turns freely, such as a rod between two ball joints): the loop closure "
+                "does not determine it; choose a frame on a part the loops hold"
+            )
 
 
 def _output_row(model, data, dimensions, output: Output, dq: np.ndarray, masks) -> np.ndarray:
