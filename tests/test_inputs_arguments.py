@@ -1,0 +1,150 @@
+"""API arguments of the wrong kind raise ArgumentError naming them (issue 10, findings 7 and 8).
+
+Each case was a wrong answer, a traceback from deep inside, or a misleading error before: a string
+q taken as radians, gravity="on" appended as a load, a mistyped backend reported as a numerical
+failure, a single load not in a list failing in iteration, an unknown keyword a bare TypeError.
+The error must name the argument, say what is expected and what was found, and come before any
+solve (so the mechanism still solves afterwards).
+"""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+from conftest import MODELS
+
+import clearance_pin as cp
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return cp.load(MODELS / "double_pendulum.urdf")
+
+
+@pytest.mark.parametrize(
+    ("options", "argument", "shown"),
+    [
+        ({"q": "60"}, "q", "'60'"),
+        ({"q": ["60", "45"]}, "q", "text"),
+        ({"q": [0.5, 0.7, 0.1]}, "q", "shape (3,)"),
+        ({"q": [0.5, np.nan]}, "q", "not finite"),
+        ({"gravity": "on"}, "gravity", "'on'"),
+        ({"backend": "clarabl"}, "backend", "'clarabl'"),
+        ({"exact": "yes"}, "exact", "'yes'"),
+        ({"tol": 0.0}, "tol", "0.0"),
+        ({"tol": -1e-9}, "tol", "-1e-09"),
+        ({"tol": "1e-9"}, "tol", "'1e-9'"),
+        ({"accuracy": float("inf")}, "accuracy", "inf"),
+        ({"warm_start": "no"}, "warm_start", "'no'"),
+        ({"loads": "tip"}, "loads", "'tip'"),
+    ],
+)
+def test_solve_argument_errors(pendulum, options, argument, shown):
+    """Every wrong argument of solve raises ArgumentError with .argument, .expected and .found,
+    all in the message."""
+    with pytest.raises(cp.ArgumentError) as caught:
+        pendulum.solve(**options)
+    error = caught.value
+    assert error.argument == argument
+    assert error.expected and error.expected in str(error)
+    assert str(error).startswith(f"{argument}: expected")
+    assert shown in str(error)
+    assert pendulum.solve().ok  # nothing was left half-done
+
+
+def test_mistyped_backend_is_not_a_numerical_failure(pendulum):
+    """backend='clarabl' names the valid backends; it is no SolverError."""
+    with pytest.raises(cp.ArgumentError, match="'auto', 'clarabel', 'ipopt'") as caught:
+        pendulum.solve(backend="clarabl")
+    assert not isinstance(caught.value, cp.SolverError)
+
+
+def test_single_load_not_in_a_list(pendulum):
+    """solve(loads=PointForce(...)) says to write loads=[load]; a list of it solves."""
+    force = cp.PointForce("tip", force=[0.0, -10.0, 0.0])
+    with pytest.raises(cp.ArgumentError, match=r"loads=\[load\]") as caught:
+        pendulum.solve(loads=force)
+    assert caught.value.found is force
+    assert pendulum.solve(loads=[force]).ok
+
+
+@pytest.mark.parametrize(
+    ("make", "argument", "named"),
+    [
+        (lambda: cp.Torque("tip", value=[0.0, 0.0, 1.0]), "Torque(value=...)", "link, torque"),
+        (lambda: cp.PointForce("tip", value=[0.0, 1.0, 0.0]), "PointForce(value=...)", "force"),
+        (lambda: cp.Gravity(g=[0.0, 0.0, -9.81]), "Gravity(g=...)", "acceleration"),
+        (lambda: cp.Torque("tip"), "Torque(...)", "missing"),
+        (lambda: cp.PointForce(7, [0.0, 1.0, 0.0]), "PointForce(link)", "a link name"),
+    ],
+)
+def test_load_constructor_errors(make, argument, named):
+    """An unknown keyword, a missing argument or a link that is not a name: ArgumentError naming
+    the argument and the valid ones."""
+    with pytest.raises(cp.ArgumentError) as caught:
+        make()
+    assert caught.value.argument == argument
+    assert named in str(caught.value)
+
+
+def test_loads_still_build_and_pickle():
+    """The checked constructors keep keywords, positional arguments, replace() and pickle."""
+    import dataclasses
+
+    force = cp.PointForce(link="tip", force=[1.0, 2.0, 3.0], point=[0.0, 0.1, 0.0])
+    assert np.array_equal(cp.PointForce("tip", [1.0, 2.0, 3.0], [0.0, 0.1, 0.0]).point, force.point)
+    copy = pickle.loads(pickle.dumps(force))
+    assert copy.link == "tip" and np.array_equal(copy.force, force.force)
+    assert dataclasses.replace(force, link="link2").link == "link2"
+    assert cp.Torque("tip", torque=[0.0, 0.0, 1.0]).torque[2] == 1.0
+
+
+def test_solve_many_argument_errors(pendulum):
+    """solve_many checks its arguments before any case, even with errors='return': a flat list
+    of loads (one case not wrapped), a text configuration, a wrong backend, a wrong errors."""
+    force = cp.PointForce("tip", [0.0, -10.0, 0.0])
+    with pytest.raises(cp.ArgumentError) as caught:
+        pendulum.solve_many([force, force])
+    assert caught.value.argument == "loads[0]"
+    with pytest.raises(cp.ArgumentError) as caught:
+        pendulum.solve_many(configurations=[pendulum.q_nominal, ["1", "2"]])
+    assert caught.value.argument == "configurations[1]"
+    with pytest.raises(cp.ArgumentError) as caught:
+        pendulum.solve_many([[force]], backend="clarabl", errors="return")
+    assert caught.value.argument == "backend"
+    with pytest.raises(cp.ArgumentError) as caught:
+        pendulum.solve_many([[force]], errors="ignore")
+    assert caught.value.argument == "errors"
+    batch = pendulum.solve_many([[force], [force]], errors="return")
+    assert all(result.ok for result in batch)
+
+
+def test_argument_error_pickles():
+    """ArgumentError survives pickling (errors cross process pools) with its attributes."""
+    error = cp.ArgumentError("tol", "a finite number > 0", -1.0, "negative")
+    copy = pickle.loads(pickle.dumps(error))
+    assert (copy.argument, copy.expected, copy.found, copy.note) == (
+        "tol",
+        error.expected,
+        -1.0,
+        "negative",
+    )
+    assert str(copy) == str(error)
+
+
+def test_load_argument_errors(tmp_path):
+    """load(): a path that is not a path, package_dirs that are not directories."""
+    with pytest.raises(cp.ArgumentError) as caught:
+        cp.load(42)
+    assert caught.value.argument == "path"
+    with pytest.raises(cp.ArgumentError) as caught:
+        cp.load(MODELS / "four_bar.urdf", package_dirs=[tmp_path / "missing"])
+    assert caught.value.argument == "package_dirs[0]"
+    with pytest.raises(cp.ArgumentError) as caught:
+        cp.load(MODELS / "four_bar.urdf", package_dirs=3)
+    assert caught.value.argument == "package_dirs"
+    with pytest.raises(cp.ArgumentError) as caught:
+        cp.loads(None)
+    assert caught.value.argument == "text"
