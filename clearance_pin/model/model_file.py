@@ -74,9 +74,9 @@ def load(path: str | Path, package_dirs=None):
     Args:
         path: the ``.urdf`` file, in the encoding its XML declaration names (UTF-8 without one).
         package_dirs: directories in which collision meshes are looked for: a ``package://pkg/f``
-            mesh is ``<dir>/pkg/f``, a relative one ``<dir>/f``; the entries of the environment
-            variable ROS_PACKAGE_PATH and the file's own directory are searched too. Meshes are
-            read only when a check needs them (``Equilibrium.check``), never to solve.
+            mesh is ``<dir>/pkg/f``, a relative one ``<dir>/f``; then the file's own directory
+            and the entries of the environment variable ROS_PACKAGE_PATH. Meshes are read only
+            when a check needs them (``Equilibrium.check``), never to solve.
 
     Returns:
         :class:`~clearance_pin.mechanism.Mechanism`.
@@ -249,8 +249,9 @@ class CollisionGeometry:
             f"mesh file not found (searched: {', '.join(searched) or 'nothing'}). A "
             "package://<pkg>/<file> mesh is looked for as <dir>/<pkg>/<file>, a relative one as "
             "<dir>/<file>, for every <dir> of package_dirs=[...] in clearance_pin.load "
-            "(--package-dir in the command line), of the ROS_PACKAGE_PATH environment variable "
-            "and the URDF's own directory. Only the coal check reads meshes; solving does not.",
+            "(--package-dir in the command line), the URDF's own directory and the "
+            "ROS_PACKAGE_PATH environment variable. Only the coal check reads meshes; solving "
+            "does not.",
         )
 
 
