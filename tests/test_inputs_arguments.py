@@ -148,3 +148,14 @@ def test_load_argument_errors(tmp_path):
     with pytest.raises(cp.ArgumentError) as caught:
         cp.loads(None)
     assert caught.value.argument == "text"
+
+
+def test_text_q_in_the_file_is_a_model_error():
+    """In the file, q="60deg" is not a number: a ModelError naming the joint (this was already
+    so; q="60" is a number, and the limits warning of test_inputs_warnings catches it)."""
+    text = (MODELS / "double_pendulum.urdf").read_text()
+    text = text.replace('q="0.5235987755982988"', 'q="60deg"')
+    with pytest.raises(cp.ModelError) as caught:
+        cp.loads(text)
+    assert caught.value.element == "<joint name='shoulder'>"
+    assert "'60deg' is not a number" in caught.value.problem
