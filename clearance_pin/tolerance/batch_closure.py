@@ -20,7 +20,15 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ClearancePinError, SolverError, UnsupportedError
+from ..errors import ClearancePinError, SolverError
+from ..kinematics.closure import (
+    _weights,
+    closure_jacobian,
+    closure_residual,
+    idle_motion_count,
+    passive_basis,
+    passive_motions,
+)
 from ..model.clearance import ALPHA
 from .dimensions import Dimension, directly_moved
 from .sensitivity import Sensitivities, sensitivities
@@ -98,11 +106,21 @@ class BatchClosure:
             for f in frames:
                 moved_frames.setdefault(f, []).append(entry)
 
-        self.passive = list(self.linear.passive_indices)
-        column_of_joint = {}
-        for j in range(1, model.njoints):
-            if model.joints[j].nv == 1 and model.joints[j].idx_v in self.passive:
-                column_of_joint[j] = self.passive.index(model.joints[j].idx_v)
+        # the passive motions (columns of the sensitivities' S_q): a 1-DOF joint's own motion,
+        # a ball joint's three rotations, ... applied one after the other in the joint frame
+        motions = passive_motions(mechanism)
+        self.passive = list(range(len(motions)))
+        specs_of_joint: dict[int, list] = {}
+        for column, motion in enumerate(motions):
+            specs_of_joint.setdefault(motion.joint_id, []).append(
+                (column, motion.kind, motion.axis)
+            )
+        self._column_of_velocity = {
+            model.joints[m.joint_id].idx_v: c
+            for c, m in enumerate(motions)
+            if model.joints[m.joint_id].nv == 1
+        }
+        self._reduction = _idle_free_basis(mechanism, data, motions)
 
         frames = {o.index for o in self.outputs if o.kind != "joint"}
         for loop in mechanism.loop_joints:
@@ -114,19 +132,7 @@ class BatchClosure:
         for j in sorted(needed):
             placement = _constant_placement(model.jointPlacements[j])
             motion = _constant_placement(model.jointPlacements[j].inverse() * data.liMi[j])
-            spec = None
-            if j in column_of_joint:
-                s = pin.getJointJacobian(model, data, j, pin.LOCAL)[:, model.joints[j].idx_v]
-                if np.allclose(s[:3], 0.0) and abs(np.linalg.norm(s[3:]) - 1) < 1e-12:
-                    spec = (column_of_joint[j], "revolute", tuple(float(v) for v in s[3:]))
-                elif np.allclose(s[3:], 0.0) and abs(np.linalg.norm(s[:3]) - 1) < 1e-12:
-                    spec = (column_of_joint[j], "prismatic", tuple(float(v) for v in s[:3]))
-                else:
-                    raise UnsupportedError(
-                        f"passive joint {model.names[j]!r}: only revolute and "
-                        "prismatic passive joints are supported by the batch "
-                        "closure"
-                    )
+            spec = tuple(specs_of_joint.get(j, ()))
             item = _Item(int(model.parents[j]), placement, tuple(moved_joints.get(j, ())))
             self.joints[j] = (item, motion, spec)
         self.frames = {
@@ -160,17 +166,22 @@ class BatchClosure:
         residual rows, delta + Newton increment."""
         tape = _Tape()
         dd = tape.variables(len(self.dimensions))
-        delta = tape.variables(len(self.passive))
-        oMi, oMf = self._forward(dd, delta)
+        reduced = self._reduction
+        z = tape.variables(len(self.passive) if reduced is None else reduced.shape[1])
+        delta = z if reduced is None else [_combination(row, z) for row in reduced]
+        geometry, oMf = self._forward(dd, delta)
         values, states = self._residual(oMf)
         self._rows = len(values)
-        self._evaluate = tape.compile(dd + delta, values + self._outputs(oMf, delta))
+        self._evaluate = tape.compile(dd + z, values + self._outputs(oMf, delta))
         self._step = None
-        if self.passive and self.loops:
-            increment = _newton_step(self._jacobian(oMi, states), values, len(self.passive))
-            self._step = tape.compile(
-                dd + delta, values + [_add(d, x) for d, x in zip(delta, increment)]
-            )
+        if z and self.loops:
+            derivatives = self._jacobian(geometry, states)
+            if reduced is not None:  # by the reduced unknowns: J C
+                derivatives = [
+                    [_combination(column, row) for column in reduced.T] for row in derivatives
+                ]
+            increment = _newton_step(derivatives, values, len(z))
+            self._step = tape.compile(dd + z, values + [_add(d, x) for d, x in zip(z, increment)])
 
     # -- kinematics ---------------------------------------------------------------------
     @staticmethod
@@ -186,15 +197,18 @@ class BatchClosure:
         return rotation, translation
 
     def _forward(self, dd: list, delta: list):
-        """World placements of the needed joints and frames, for deviations ``dd`` and passive
-        increments ``delta`` (entries, one per dimension / passive joint)."""
+        """World placements of the needed frames for deviations ``dd`` and passive increments
+        ``delta`` (entries, one per dimension / passive motion), and the world axis and origin
+        of every passive motion where it acts: [(joint, column, kind, w, p)]. A joint's motions
+        act one after the other in its frame (a ball joint: three rotations)."""
         identity = ((1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0))
         oMi = {0: identity}
-        for j, (item, motion, spec) in self.joints.items():
+        geometry = []
+        for j, (item, motion, specs) in self.joints.items():
             placement = _compose(_compose(oMi[item.parent], self._moved(item, dd)), motion)
-            if spec is not None:
-                column, kind, axis = spec
+            for column, kind, axis in specs:
                 d = delta[column]
+                geometry.append((j, column, kind, _mat_vec(placement[0], axis), placement[1]))
                 if kind == "revolute":
                     placement = _compose(
                         placement, (_rotation(axis, np.cos(d), np.sin(d)), (0.0, 0.0, 0.0))
@@ -205,16 +219,7 @@ class BatchClosure:
         oMf = {
             f: _compose(oMi[item.parent], self._moved(item, dd)) for f, item in self.frames.items()
         }
-        return oMi, oMf
-
-    def _columns(self, oMi):
-        """World axis and origin of every passive joint: (column, kind, w, p)."""
-        columns = []
-        for j, (_, _, spec) in self.joints.items():
-            if spec is not None:
-                column, kind, axis = spec
-                columns.append((j, column, kind, _mat_vec(oMi[j][0], axis), oMi[j][1]))
-        return columns
+        return geometry, oMf
 
     def _residual(self, oMf):
         """Weighted residual rows of every loop, and the loop geometry for :meth:`_jacobian`."""
@@ -236,7 +241,7 @@ class BatchClosure:
             states.append((frame_a, frame_b, rows, axis_mode, weights, rc, pc, pb, rot, theta))
         return values, states
 
-    def _jacobian(self, oMi, states):
+    def _jacobian(self, geometry, states):
         r"""Exact derivatives of the residual rows by the passive increments, row by row.
 
         For a passive joint with world axis ``w`` through ``p``: point velocity
@@ -245,7 +250,7 @@ class BatchClosure:
         omega_a)`` and ``d log(R_rel) = J_l^{-1} w_rel`` (or the derivative of the axis angles).
         """
         zero = (0.0, 0.0, 0.0)
-        columns = self._columns(oMi)
+        columns = geometry
         derivatives = []
         for frame_a, frame_b, rows, axis_mode, weights, rc, pc, pb, rot, theta in states:
             per_column = {}
@@ -284,7 +289,8 @@ class BatchClosure:
         for output in self.outputs:
             if output.kind == "joint":
                 idx_v = self.mechanism.model.joints[output.index].idx_v
-                values.append(delta[self.passive.index(idx_v)] if idx_v in self.passive else 0.0)
+                column = self._column_of_velocity.get(idx_v)
+                values.append(delta[column] if column is not None else 0.0)
             elif output.kind == "position":
                 values.append(oMf[output.index][1][output.component])
             else:  # world rotation vector of R R_0^T, R_0 the nominal rotation
@@ -297,6 +303,8 @@ class BatchClosure:
         n, rows = dd.shape[0], self._rows
         columns = [np.ascontiguousarray(dd[:, k]) for k in range(dd.shape[1])]
         delta = dd @ self.linear.passive.T if self.passive else np.zeros((n, 0))
+        if self._reduction is not None:  # S_q has no idle part: its reduced coordinates
+            delta = delta @ self._reduction
         delta = [np.ascontiguousarray(delta[:, k]) for k in range(delta.shape[1])]
         iterations = 0
         while True:
@@ -374,3 +382,33 @@ def _newton_step(derivatives, values, n_passive: int) -> list:
             s = _sub(s, _mul(lower[k][i], x[k]))
         x[i] = s / lower[i][i]
     return x
+
+
+def _combination(coefficients, entries) -> object:
+    """``sum_k c_k e_k`` of float coefficients and entries (zeros fold)."""
+    total = 0.0
+    for c, e in zip(coefficients, entries):
+        if abs(float(c)) > 1e-15:
+            total = _add(total, _mul(float(c), e))
+    return total
+
+
+def _idle_free_basis(mechanism, data: pin.Data, motions) -> np.ndarray | None:
+    """An orthonormal basis C (n_passive, n_kept) of the passive motions orthogonal to the idle
+    ones (null space of the closure Jacobian at this configuration; a rod between two ball
+    joints spins freely), or None without idle motions. The batched Newton solves for the
+    coordinates z of ``delta = C z``: the idle motions stay where the sensitivities put them
+    (nowhere), and the normal equations are regular."""
+    if not motions or not mechanism.loop_joints:
+        return None
+    idle = idle_motion_count(mechanism)
+    if not idle:
+        return None
+    length = mechanism.length_scale()
+    _, selections = closure_residual(mechanism, data)
+    weights = np.concatenate([_weights(rows, length) for _, rows, _ in selections])
+    jacobian = closure_jacobian(mechanism, data, selections, passive_basis(mechanism, motions))
+    vt = np.linalg.svd(weights[:, None] * jacobian, full_matrices=True)[2]
+    basis = vt[: len(motions) - idle].T
+    basis[np.abs(basis) < 1e-15] = 0.0
+    return basis

@@ -23,7 +23,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ClearancePinError
-from .sensitivity import Output, parse_output, sensitivities
+from .sensitivity import Output, determined_outputs, parse_output, sensitivities
 from .sweep import clearance_budget, cycle_maximum, plot_sweep, sweep
 
 __all__ = ["add_arguments", "default_outputs", "run"]
@@ -87,6 +87,7 @@ def default_outputs(mechanism) -> tuple[Output, ...]:
         for name in leaves
         for c in ("x", "y", "z", "rx", "ry", "rz")
     ]
+    candidates = list(determined_outputs(mechanism, candidates))  # not a freely spinning rod
     if not candidates:
         raise ClearancePinError(f"{mechanism.source}: no leaf link to report; give --output")
     linear = sensitivities(mechanism, candidates)

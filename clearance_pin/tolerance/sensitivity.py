@@ -51,6 +51,7 @@ import pinocchio as pin
 
 from ..errors import ClearancePinError, ConditioningWarning, ModelError
 from ..kinematics.closure import (
+    closure_jacobian,
     closure_residual,
     idle_motion_count,
     passive_basis,
@@ -63,6 +64,7 @@ from .statistics import rss_band, worst_case_band
 __all__ = [
     "Output",
     "Sensitivities",
+    "determined_outputs",
     "dimension_columns",
     "loop_passive_indices",
     "output_deviations",
@@ -362,23 +364,51 @@ def _passive_sensitivities(
 def _refuse_idle_outputs(model, data, outputs, idle: np.ndarray) -> None:
     """An output that an idle motion moves (the orientation of a rod spinning freely between
     two ball joints) is not determined by the loop closure: refuse it by name."""
-    if not idle.size:
-        return
     for output in outputs:
-        if output.kind == "joint":
-            moved = np.abs(idle[model.joints[output.index].idx_v])
-        else:
-            twist = pin.getFrameJacobian(model, data, output.index, pin.WORLD) @ idle
-            point = data.oMf[output.index].translation
-            velocity = twist[:3] - np.cross(point, twist[3:].T).T
-            moving = twist[3:] if output.kind == "orientation" else velocity
-            moved = np.abs(moving[output.component])
-        if np.max(moved, initial=0.0) > 1e-9 * max(1.0, float(np.max(np.abs(idle)))):
+        if _moved_by_idle(model, data, output, idle):
             raise ClearancePinError(
                 f"output {output.name!r} moves with an idle motion of the mechanism (a part "
                 "that turns freely, such as a rod between two ball joints): the loop closure "
                 "does not determine it; choose a frame on a part the loops hold"
             )
+
+
+def _moved_by_idle(model, data, output: Output, idle: np.ndarray) -> bool:
+    """Does an idle motion (columns of ``idle``, velocity space (nv, n_idle)) move the output?"""
+    if not idle.size:
+        return False
+    if output.kind == "joint":
+        moved = np.abs(idle[model.joints[output.index].idx_v])
+    else:
+        twist = pin.getFrameJacobian(model, data, output.index, pin.WORLD) @ idle
+        point = data.oMf[output.index].translation
+        velocity = twist[:3] - np.cross(point, twist[3:].T).T
+        moving = twist[3:] if output.kind == "orientation" else velocity
+        moved = np.abs(moving[output.component])
+    return bool(np.max(moved, initial=0.0) > 1e-9 * max(1.0, float(np.max(np.abs(idle)))))
+
+
+def determined_outputs(mechanism, outputs, q: np.ndarray | None = None) -> tuple[Output, ...]:
+    """The outputs that the loop closure determines at ``q`` (default nominal): those no idle
+    motion moves (a rod between two ball joints spins freely; its orientation is not one)."""
+    model = mechanism.model
+    outputs = tuple(o if isinstance(o, Output) else parse_output(model, o) for o in outputs)
+    if not mechanism.loop_joints or not idle_motion_count(mechanism):
+        return outputs
+    q = mechanism.configure(q).q
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    pin.computeJointJacobians(model, data, q)
+    basis = passive_basis(mechanism)
+    _, selections = closure_residual(mechanism, data)
+    length = mechanism.length_scale()
+    weights = np.concatenate(
+        [[1.0 if c < ALPHA else length for c in rows] for _, rows, _ in selections]
+    )
+    jacobian = weights[:, None] * closure_jacobian(mechanism, data, selections, basis)
+    vt = np.linalg.svd(jacobian, full_matrices=True)[2]
+    idle = basis @ vt[basis.shape[1] - idle_motion_count(mechanism) :].T
+    return tuple(o for o in outputs if not _moved_by_idle(model, data, o, idle))
 
 
 def _output_row(model, data, dimensions, output: Output, dq: np.ndarray, masks) -> np.ndarray:
