@@ -189,10 +189,15 @@ def statics_residual(equilibrium, loads, q=None) -> float:
 def reaction_residual(equilibrium, loads, q=None) -> float:
     """Per-body imbalance from ``Equilibrium.reaction(joint, frame="world")`` alone (issue 10
     finding 5), relative to the largest load wrench; the reaction is the wrench of the parent on
-    the child, world axes, moment about the world origin."""
+    the child, world axes, moment about the world origin. Exact answers are balanced at their
+    solved pose (the loads' points follow their bodies)."""
     mechanism = equilibrium.mechanism
     q = equilibrium.configuration.q if q is None else q
     oMi, oMf = placements(mechanism, q)
+    if equilibrium.formulation == "exact":  # statics at the solved pose
+        model = mechanism.model
+        oMi = [equilibrium.body_placements[i] for i in range(model.njoints)]
+        oMf = [oMi[frame.parentJoint] * frame.placement for frame in model.frames]
     balance = external_wrenches(mechanism, loads, oMi, oMf)
     scale = float(np.abs(balance[1:]).max()) or 1.0
     for joint in all_joints(mechanism):
