@@ -65,7 +65,8 @@ class ExactProblem:
         nbody = model.njoints
         load_params = ca.SX.sym("loads", 15, nbody)
         loops = mechanism.loop_joints
-        loop_b = ca.SX.sym("loop_b", 12, max(len(loops), 1))
+        loop_a = ca.SX.sym("loop_a", 12, max(len(loops), 1))  # aMc: [R | p] per loop joint
+        loop_b = ca.SX.sym("loop_b", 12, max(len(loops), 1))  # bMc
         contacts = [
             (name, point)
             for name, joint in mechanism.joints.items()
@@ -90,7 +91,7 @@ class ExactProblem:
         nominal = kin.joint_placements(q)
         placed = kin.joint_placements(q, deltas)
         for index, loop in enumerate(loops):
-            C_a = (ca.DM(loop.rotation), ca.DM.zeros(3))
+            C_a = (ca.reshape(loop_a[0:9, index], 3, 3), loop_a[9:12, index])
             C_b = (ca.reshape(loop_b[0:9, index], 3, 3), loop_b[9:12, index])
             oMa = compose(kin.frame_placement(placed, loop.frame_a), C_a)
             oMb = compose(kin.frame_placement(placed, loop.frame_b), C_b)
@@ -123,12 +124,20 @@ class ExactProblem:
         self.contacts = contacts
         self.n_equality = len(kept) + gauge_count
         parameters = ca.vertcat(
-            q, scale, ca.vec(load_params), ca.vec(loop_b), bounds, ca.vec(gauge), sigma
+            q,
+            scale,
+            ca.vec(load_params),
+            ca.vec(loop_a),
+            ca.vec(loop_b),
+            bounds,
+            ca.vec(gauge),
+            sigma,
         )
         self.parameter_sizes = (
             model.nq,
             n,
             15 * nbody,
+            12 * max(len(loops), 1),
             12 * max(len(loops), 1),
             len(contacts),
             n * gauge_count,
@@ -200,11 +209,11 @@ class ExactProblem:
             loads[0:3, body] = load.force
             loads[3:12, body] = load.moment_matrix.ravel(order="F")
             loads[12:15, body] = load.torque
-        rotations = np.zeros((12, max(len(self.mechanism.loop_joints), 1)))
+        sides = np.zeros((2, 12, max(len(self.mechanism.loop_joints), 1)))
         for index, loop in enumerate(self.mechanism.loop_joints):
-            bMc = configuration.bMc[loop.name]
-            rotations[0:9, index] = bMc.rotation.ravel(order="F")
-            rotations[9:12, index] = bMc.translation
+            for side, placement in enumerate((configuration.aMc, configuration.bMc)):
+                sides[side, 0:9, index] = placement[loop.name].rotation.ravel(order="F")
+                sides[side, 9:12, index] = placement[loop.name].translation
         bounds = np.array([point.bound for _, point in self.contacts])
         gauge = linear_problem.free_motions / scale[:, None]
         if gauge.size:
@@ -214,7 +223,8 @@ class ExactProblem:
                 configuration.q,
                 scale,
                 loads.ravel(order="F"),
-                rotations.ravel(order="F"),
+                sides[0].ravel(order="F"),
+                sides[1].ravel(order="F"),
                 bounds,
                 gauge.ravel(order="F"),
                 [sigma],
@@ -441,13 +451,17 @@ def _assemble(
         offset += basis.shape[1]
     for loop in mechanism.loop_joints:
         M = relatives[loop.name]
-        torsors[loop.name] = np.array(pin.log6(pin.SE3(M[:, :3], M[:, 3])).vector)
+        # the child's motion from its nominal place (a misaligned housing's eccentricity E),
+        # at the child's clearance frame like the linear torsor: relative = E * motion
+        motion = configuration.eccentricity(loop).actInv(pin.SE3(M[:, :3], M[:, 3]))
+        torsors[loop.name] = np.array(pin.log6(motion).vector)
     body_motions = {}
     for i in range(1, model.njoints):
         R, t = placed[i][:, :3], placed[i][:, 3]
         R0, t0 = configuration.oMi[i].rotation, configuration.oMi[i].translation
         body_motions[model.names[i]] = (t - t0, pin.log3(R @ R0.T))
     contacts = []
+    sides = frames_at(mechanism, configuration, placed)  # where the contact points are
     n_inequality = len(exact.contacts)
     lam = lam.copy()
     for j, (name, point) in enumerate(exact.contacts):
@@ -465,7 +479,18 @@ def _assemble(
         force = np.zeros(3)
         force[list(point.components)] = local
         active = gap <= 1e-7 * point.bound or (polished_multipliers and lam[j] != 0.0)
-        contacts.append(Contact(name, point.name, gap, point.bound, force, bool(active)))
+        contacts.append(
+            Contact(
+                name,
+                point.name,
+                gap,
+                point.bound,
+                force,
+                bool(active),
+                M[:, :3] @ r + M[:, 3],  # the child's point where it is, parent clearance frame
+                sides[name].child.act(r),
+            )
+        )
     scaled_gradient, jacobian, energy = parts.gradient, parts.jacobian, parts.energy
     inequality_jacobian = jacobian[:n_inequality]
     equality_jacobian = jacobian[n_inequality:]

@@ -37,7 +37,11 @@ def prepared_geometry(mechanism, q=None) -> PreparedGeometry:
                 return prepared
             configuration = mechanism.configure(q)
             maps = build_maps(
-                mechanism.model, mechanism.data, mechanism.tree_joints, mechanism.loop_joints
+                mechanism.model,
+                mechanism.data,
+                mechanism.tree_joints,
+                mechanism.loop_joints,
+                configuration,
             )
             geometry = _reduced_geometry(mechanism, maps)
             state = mechanism._solve_state

@@ -181,8 +181,9 @@ def closure_jacobian(mechanism, data: pin.Data, selections, basis: np.ndarray) -
     model = mechanism.model
     blocks = []
     for loop, rows, oMc in selections:
-        j_a = pin.getFrameJacobian(model, data, loop.frame_a, pin.WORLD)
-        j_b = pin.getFrameJacobian(model, data, loop.frame_b, pin.WORLD)
+        # (6, nv) also when nv = 1 (the binding returns a vector then)
+        j_a = pin.getFrameJacobian(model, data, loop.frame_a, pin.WORLD).reshape(6, model.nv)
+        j_b = pin.getFrameJacobian(model, data, loop.frame_b, pin.WORLD).reshape(6, model.nv)
         blocks.append((oMc.inverse().action @ (j_b - j_a))[rows] @ basis)
     return np.vstack(blocks) if blocks else np.zeros((0, basis.shape[1]))
 
