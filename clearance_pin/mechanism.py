@@ -13,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import ClearancePinError, LoadError, ModelError, SolverError
+from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
 from .model.joints import LoopJoint, TreeJoint
 from .model.loads import Gravity, Load, PointForce, Torque
 
@@ -25,14 +26,25 @@ class Configuration:
         q: joint configuration (nq,).
         oMi: world placement of every joint frame (copies).
         oMf: world placement of every frame (copies).
-        bMc: per loop joint, placement (pin.SE3) of its child-side clearance frame in ``frame_b``,
-            chosen so that it coincides with the parent-side clearance frame at this configuration.
+        aMc: per loop joint, placement (pin.SE3) of its parent-side clearance frame (the
+            housing's zone) in ``frame_a``.
+        bMc: per loop joint, placement (pin.SE3) of its child-side clearance frame (the journal,
+            block or ball) in ``frame_b``. Both follow the rule of
+            :mod:`clearance_pin.kinematics.loop_frames`: the zone sits where the child part is;
+            they coincide unless the joint has a nominal eccentricity.
     """
 
     q: np.ndarray
     oMi: tuple
     oMf: tuple
+    aMc: dict
     bMc: dict
+
+    def eccentricity(self, loop) -> pin.SE3:
+        """The loop joint's child clearance frame in its parent one at this configuration:
+        identity for an aligned joint, the nominal eccentricity (a misaligned housing) else."""
+        oMa, oMb = self.oMf[loop.frame_a], self.oMf[loop.frame_b]
+        return (oMa * self.aMc[loop.name]).actInv(oMb * self.bMc[loop.name])
 
 
 class Mechanism:
@@ -145,11 +157,13 @@ class Mechanism:
                     pin.framesForwardKinematics(self.model, self.data, q)
             oMi = tuple(m.copy() for m in self.data.oMi)
             oMf = tuple(m.copy() for m in self.data.oMf)
-        bMc = {}
-        for loop in self.loop_joints:
-            oMc = oMf[loop.frame_a] * pin.SE3(loop.rotation, np.zeros(3))
-            bMc[loop.name] = oMf[loop.frame_b].inverse() * oMc
-        return Configuration(q.copy(), oMi, oMf, bMc)
+        frames = loop_joint_frames(self, oMf)
+        problems = eccentricity_problems(self, oMf) if self.loop_joints else []
+        if problems:  # the closure's own test, repeated for configurations it did not touch
+            raise ModelError(self.source, "<loop_joint>", problems[0])
+        aMc = {name: pair[0] for name, pair in frames.items()}
+        bMc = {name: pair[1] for name, pair in frames.items()}
+        return Configuration(q.copy(), oMi, oMf, aMc, bMc)
 
     def _closed_start(self, q: np.ndarray) -> np.ndarray | None:
         """The closed configuration nearest to ``q`` in the driven joints (None before loading)."""
@@ -208,6 +222,7 @@ class Mechanism:
         backend: str = "auto",
         accuracy: float = 1e-9,
         warm_start: bool = True,
+        outputs=None,
     ):
         """Quasi-static equilibrium of the parts in their joint clearances.
 
@@ -216,8 +231,10 @@ class Mechanism:
             exact: False: the small-displacement model [Y]; True: also solve the exact
                 finite-displacement model (warm-started from the linear one) and return it, with
                 the linear solution in ``.linear``; ``"auto"``: the exact model only when the
-                linear solution sits more than ``accuracy`` [m] off the true clearance boundaries
-                (:mod:`clearance_pin.equilibrium.second_order`); ``.note`` says which and why.
+                estimated exact - linear difference at an output (translation [m], or rotation
+                times the mechanism's length scale) may exceed ``accuracy`` [m], or cannot be
+                estimated (:mod:`clearance_pin.equilibrium.second_order`); ``.note`` says which
+                and why, ``.difference_bound`` holds the estimate.
             q: nominal configuration (default: the model's); driven joints are held there.
             gravity: True / a :class:`Gravity` to add gravity, False to switch it off,
                 None for the model's setting.
@@ -227,6 +244,9 @@ class Mechanism:
             backend: ``"auto"`` (Clarabel when installed, else IPOPT), ``"clarabel"`` or
                 ``"ipopt"`` for the small-displacement cone programme; the answer is polished and
                 verified the same way whichever finds it. The exact model always uses IPOPT.
+            outputs: Pinocchio frame names whose world displacement is reported in
+                ``.outputs`` (and compared in ``.difference``), after the loaded points;
+                default: the leaf links (links without a child joint).
 
         Returns:
             :class:`~clearance_pin.equilibrium.result.Equilibrium`.
@@ -238,7 +258,7 @@ class Mechanism:
         gravity_load = False if gravity is False else gravity
         resolved = self.resolve_loads(loads, gravity_load)
         try:
-            return self._solve(resolved, exact, q, tol, backend, accuracy, warm_start)
+            return self._solve(resolved, exact, q, tol, backend, accuracy, warm_start, outputs)
         except (np.linalg.LinAlgError, OverflowError, FloatingPointError, ValueError) as exc:
             if isinstance(exc, ClearancePinError):
                 raise
@@ -248,26 +268,35 @@ class Mechanism:
                 "numerical error",
             ) from None
 
-    def _solve(self, resolved, exact, q, tol, backend, accuracy, warm_start):
+    def _solve(self, resolved, exact, q, tol, backend, accuracy, warm_start, outputs=None):
+        from .equilibrium.outputs import resolve_outputs
         from .equilibrium.solve import solve_exact, solve_linear
 
+        points = resolve_outputs(self, resolved, outputs)
         linear = solve_linear(self, resolved, q, tol, backend, warm_start)
+        linear.output_points = points
         if exact == "auto":
-            from .equilibrium.second_order import linear_model_error
+            from .equilibrium.second_order import estimate_difference
 
-            error = linear_model_error(linear)
+            estimate = estimate_difference(linear, resolved, q, points)
+            error = max(estimate.translation_m, estimate.rotation_rad * self.length_scale())
             linear.residuals["second_order_m"] = error
+            linear.difference_bound = estimate.as_dict()
             if error <= accuracy:
                 linear.note = (
-                    f"auto: small-displacement model kept, its error at the solution "
-                    f"{error:.2e} m <= accuracy {accuracy:.0e} m"
+                    f"auto: small-displacement model kept, its estimated difference from the "
+                    f"exact model at the outputs {error:.2e} m <= accuracy {accuracy:.0e} m"
                 )
                 return linear
             result = solve_exact(self, resolved, q, linear, tol)
-            result.note = (
-                f"auto: exact model run, the small-displacement solution is "
-                f"{error:.2e} m off the true boundaries > accuracy {accuracy:.0e} m"
+            result.difference_bound = linear.difference_bound
+            why = (
+                f"estimated difference from the exact model at the outputs {error:.2e} m > "
+                f"accuracy {accuracy:.0e} m"
+                if estimate.reliable
+                else f"no reliable second-order estimate ({estimate.reason})"
             )
+            result.note = f"auto: exact model run, {why}"
             return result
         if not exact:
             return linear

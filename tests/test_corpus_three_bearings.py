@@ -149,7 +149,6 @@ def contacts_only_geometry(eq, offset_y, moved) -> None:
                 assert reach == pytest.approx(RADIAL, rel=1e-9), (name, end)
 
 
-@pytest.mark.xfail(strict=True, reason="issue 10 finding 6")
 def test_misaligned_shaft_linear():
     mech = clearance_pin.loads(model_text(MISALIGNMENT))
     eq = mech.solve(loads=LOADS)
@@ -158,7 +157,6 @@ def test_misaligned_shaft_linear():
     check_settled_shaft(eq, MISALIGNMENT, lambda p: p + v + np.cross(w, p))
 
 
-@pytest.mark.xfail(strict=True, reason="issue 10 finding 6")
 def test_misaligned_shaft_exact():
     mech = clearance_pin.loads(model_text(MISALIGNMENT))
     eq = mech.solve(loads=LOADS, exact=True)

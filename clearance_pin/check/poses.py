@@ -9,8 +9,9 @@ configuration; at the solved pose their relative placement is the joint's finite
   .. math::  oM_{parent} = oM_p\; (oM_p^0)^{-1}\, oM_k^0\; C_k, \qquad oM_{child} = oM_k\; C_k
 
   (the child's nominal frame carried along with the parent; :math:`oM^0` nominal placements);
-- loop joint between frames a and b: :math:`oM_{parent} = oM_a\, C_a`,
-  :math:`oM_{child} = oM_b\; bM_c` (``Configuration.bMc``, the child-side frame fixed in b).
+- loop joint between frames a and b: :math:`oM_{parent} = oM_a\; aM_c`,
+  :math:`oM_{child} = oM_b\; bM_c` (``Configuration.aMc``, ``Configuration.bMc``: the zone sits
+  where the child part is, :mod:`clearance_pin.kinematics.loop_frames`).
 
 :math:`oM_p, oM_k` are ``Equilibrium.body_placements``, :math:`oM_a = oM_{j(a)}\; jM_a` with
 :math:`jM_a` the frame's placement in its Pinocchio joint.

@@ -44,7 +44,7 @@ def batched_newton(
     cases = objectives.shape[0]
     active = np.flatnonzero(multipliers0 > 0.0)
     size, count = stack.size, active.size
-    rows, starts, norm_rows, local, _, _ = stack.subset(active)
+    rows, starts, norm_rows, local, _, _, offsets = stack.subset(active)
     slab_signs = (1.0 - norm_rows) * signs[active][local]
     twice_norm = 2.0 * norm_rows
     unknowns = np.empty((cases, size + count))
@@ -54,7 +54,7 @@ def batched_newton(
     kkt = np.zeros((cases, size + count, size + count))
     kkt[:, size:, size:] = -PROXIMAL * np.eye(count)
     for _ in range(iterations + 1):
-        image = y @ rows.T
+        image = y @ rows.T + offsets
         weight = twice_norm * image + slab_signs
         gradients = np.add.reduceat(rows[None] * weight[:, :, None], starts, axis=1)
         values = np.add.reduceat(image * (weight - norm_rows * image), starts, axis=1) - 1.0
@@ -95,7 +95,7 @@ def _minimum_norm_forces(gradients, objectives, lam):
 def stacked_evaluation(stack: StackedContacts, y: np.ndarray, signs: np.ndarray):
     """For every case, phi of every contact (slabs on either side, |.|) and the gradients of
     every contact on the sides ``signs``: ((N, m), (N, m, r)), as :meth:`.kkt.StackedContacts.evaluate`."""
-    image = y @ stack.matrix.T
+    image = y @ stack.matrix.T + stack.offset
     squares = np.add.reduceat(image * image, stack.starts, axis=1)
     phi = np.where(stack.is_norm, squares, np.abs(image[:, stack.starts])) - 1.0
     weights = np.where(stack.row_is_norm, 2.0 * image, signs[stack.row_contact])

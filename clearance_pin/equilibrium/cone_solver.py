@@ -95,16 +95,17 @@ class IpoptBackend:
         f = ca.SX.sym("f", size)
         total_rows = sum(k for _, k in shapes)
         p_matrix = ca.SX.sym("P", total_rows, size)
+        offset = ca.SX.sym("o", total_rows)
         constraints, lower = [], []
         row = 0
         for shape, k in shapes:
-            image = ca.mtimes(p_matrix[row : row + k, :], y)
+            image = ca.mtimes(p_matrix[row : row + k, :], y) + offset[row : row + k]
             row += k
             constraints.append(ca.sumsqr(image) if shape == "norm" else image)
             lower.append(-ca.inf if shape == "norm" else -1.0)
         nlp = {
             "x": y,
-            "p": ca.vertcat(f, ca.vec(p_matrix)),
+            "p": ca.vertcat(f, ca.vec(p_matrix), offset),
             "f": ca.dot(f, y),
             "g": ca.vertcat(*constraints) if constraints else ca.SX(0, 1),
         }
@@ -125,7 +126,8 @@ class IpoptBackend:
 
     def run(self, problem: ReducedProblem):
         """(y, multipliers, status, iterations) from the nominal start y = 0."""
-        parameters = np.concatenate([problem.objective, problem.stack.matrix.ravel(order="F")])
+        stack = problem.stack
+        parameters = np.concatenate([problem.objective, stack.matrix.ravel(order="F"), stack.offset])
         result = self._solver(
             x0=np.zeros(problem.size), p=parameters, lbg=self._lower, ubg=self._upper
         )
@@ -136,7 +138,7 @@ class IpoptBackend:
 
 
 class ClarabelBackend:
-    """Clarabel on the second-order-cone form: (1, P_j y) in SOC, 1 -/+ p_j^T y >= 0."""
+    """Clarabel on the second-order-cone form: (1, P_j y + o_j) in SOC, 1 -/+ (p_j^T y + o_j) >= 0."""
 
     name = "clarabel"
 
@@ -193,7 +195,7 @@ class ClarabelBackend:
                 self._zero,
                 np.ones(problem.size),
                 self._cone_matrix(problem),
-                self._b,
+                self._offset_b(stack),
                 self._cones,
                 self._settings,
             )
@@ -213,6 +215,21 @@ class ClarabelBackend:
             f"clarabel: {result.status}",
             int(result.iterations),
         )
+
+    def _offset_b(self, stack) -> np.ndarray:
+        """b with the eccentricities o: (1, o_j) for a cone, (1 - o_j, 1 + o_j) for a slab."""
+        if not stack.offset.any():
+            return self._b
+        b = self._b.copy()
+        for j, start in enumerate(self._z_starts):
+            first = stack.starts[j]
+            if stack.is_norm[j]:
+                k = (stack.starts[j + 1] if j + 1 < stack.count else stack.matrix.shape[0]) - first
+                b[start + 1 : start + 1 + k] = stack.offset[first : first + k]
+            else:
+                b[start] -= stack.offset[first]
+                b[start + 1] += stack.offset[first]
+        return b
 
     def _cone_matrix(self, problem: ReducedProblem):
         blocks = []

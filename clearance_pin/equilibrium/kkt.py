@@ -1,8 +1,8 @@
 r"""KKT system of the reduced cone programme, vectorised over all contacts, and its Newton solve.
 
 Problem (:mod:`.reduction`): :math:`\min f^T y` s.t. :math:`\phi_j(y) \le 0` with
-:math:`\phi_j = \|P_j y\|^2 - 1` (ball, disc) or :math:`\phi_j = s_j p_j^T y - 1` (slab side
-:math:`s_j = \pm 1`). All :math:`P_j` are stacked into one matrix P (rows of contact j in
+:math:`\phi_j = \|P_j y + o_j\|^2 - 1` (ball, disc) or :math:`\phi_j = s_j (p_j^T y + o_j) - 1`
+(slab side :math:`s_j = \pm 1`; :math:`o_j` a misaligned housing's eccentricity, usually 0). All :math:`P_j` are stacked into one matrix P (rows of contact j in
 ``starts[j]:starts[j+1]``), so every evaluation is a few matrix products:
 
 .. math::  \nabla\phi_j = \sum_{rows\ i\ of\ j} w_i P_i, \quad w_i = 2 (P y)_i \ (\text{norm}),
@@ -32,15 +32,26 @@ class StackedContacts:
 
     Attributes:
         matrix: P, (total rows, r).
+        offset: o, the images at y = 0, (total rows,); the images are P y + o.
         starts: first row of each contact, (m,).
         is_norm: per contact, True for balls and discs, (m,).
         row_contact: per row, its contact index, (total rows,).
     """
 
-    def __init__(self, matrices: tuple[np.ndarray, ...], shapes: list[str], size: int):
+    def __init__(
+        self,
+        matrices: tuple[np.ndarray, ...],
+        shapes: list[str],
+        size: int,
+        offsets: list[np.ndarray] | None = None,
+    ):
         self.size = size
         self.count = len(matrices)
         self.matrix = np.vstack(matrices) if matrices else np.zeros((0, size))
+        # o: the images at y = 0 (a misaligned housing), so that every image is P y + o
+        self.offset = (
+            np.concatenate(offsets) if offsets else np.zeros(self.matrix.shape[0])
+        )
         lengths = np.array([m.shape[0] for m in matrices], dtype=int)
         self.starts = (
             np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(int)
@@ -58,7 +69,7 @@ class StackedContacts:
     def subset(self, active: np.ndarray, projected: bool = False) -> tuple:
         r"""Rows of the contacts ``active`` (memoised when small): (P_A, first row of each contact
         in P_A, per row 1.0 for a ball or disc row and 0.0 for a slab row, per row its index in
-        ``active``, P_A R, R). With ``projected``, R is the orthonormal basis (r, s) of the
+        ``active``, P_A R, R, o_A). With ``projected``, R is the orthonormal basis (r, s) of the
         motions the contacts of A see (one SVD), None when they see every motion; without, R is
         None and P_A R is P_A. The Hessian :math:`2 \sum_A \lambda_j P_j^T P_j` is formed from
         these rows, weighted, in O(rows r^2) time and O(r^2) memory."""
@@ -83,6 +94,7 @@ class StackedContacts:
                 local,
                 matrix if seen is None else matrix @ seen,
                 seen,
+                self.offset[rows],
             )
             if len(self._subsets) < SUBSETS_KEPT and matrix.size <= SUBSET_SIZE_KEPT:
                 self._subsets[key] = cached
@@ -112,7 +124,7 @@ class StackedContacts:
 
     def values(self, y: np.ndarray, signs: np.ndarray) -> np.ndarray:
         """phi_j(y) for every contact (slabs on their side ``signs``; |.| if signs is None)."""
-        image = self.matrix @ y
+        image = self.matrix @ y + self.offset
         squares = np.add.reduceat(image * image, self.starts) if self.count else np.zeros(0)
         slab = image[self.starts]
         slab = np.abs(slab) if signs is None else signs * slab
@@ -120,7 +132,7 @@ class StackedContacts:
 
     def evaluate(self, y: np.ndarray, signs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(phi_j on the sides ``signs``, gradients (m, r)) from one product P y."""
-        image = self.matrix @ y
+        image = self.matrix @ y + self.offset
         squares = np.add.reduceat(image * image, self.starts)
         values = np.where(self.is_norm, squares, signs * image[self.starts]) - 1.0
         weights = np.where(self.row_is_norm, 2.0 * image, signs[self.row_contact])
@@ -133,7 +145,7 @@ class StackedContacts:
 
     def sides(self, y: np.ndarray) -> np.ndarray:
         """Side (+1/-1) of every slab at y (1 for norm contacts)."""
-        slab = (self.matrix @ y)[self.starts] if self.count else np.zeros(0)
+        slab = (self.matrix @ y + self.offset)[self.starts] if self.count else np.zeros(0)
         return np.where(self.is_norm | (slab >= 0.0), 1.0, -1.0)
 
 
@@ -177,7 +189,7 @@ def newton(
     size, count = stack.size, active.size
     if not projected and active.tobytes() in stack.projection_hints:
         projected = True
-    rows, starts, norm_rows, local, seen_rows, seen = stack.subset(active, projected)
+    rows, starts, norm_rows, local, seen_rows, seen, offsets = stack.subset(active, projected)
 
     def retry_projected():
         return newton(
@@ -199,7 +211,7 @@ def newton(
     y, lam = unknowns[:size], unknowns[size:]  # views: one update moves both
     converged, previous = POLISH_TOL * POLISH_TOL, np.inf
     for iteration in range(iterations + 1):
-        image = np.dot(rows, y)
+        image = np.dot(rows, y) + offsets
         weight = twice_norm * image + slab_signs
         gradients = np.add.reduceat(rows * weight[:, None], starts)
         # phi from the images, not from G y: the rows may be large and cancel
@@ -394,7 +406,7 @@ def _step_to_next_contact(stack: StackedContacts, objective, y, signs, active):
     direction = -tangent @ (tangent.T @ objective)
     if np.linalg.norm(direction) <= 1e-14:
         return None
-    image = stack.matrix @ y
+    image = stack.matrix @ y + stack.offset
     image_d = stack.matrix @ direction
     best, reached = np.inf, None
     for j in np.setdiff1d(np.arange(stack.count), active):

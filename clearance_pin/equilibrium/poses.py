@@ -2,7 +2,8 @@ r"""Both clearance frames of every joint at a solved pose (parent side and child
 
 For a tree joint the parent side is the child's nominal joint frame carried by the parent part,
 :math:`oM_p\, (oM_{p0}^{-1} oM_{k0})\, C_k`, and the child side is :math:`oM_k C_k`; for a loop joint
-they are :math:`oM_a C_a` and :math:`oM_b\, {}^bM_c`. The child frame in the parent frame is the
+they are :math:`oM_a\, {}^aM_c` and :math:`oM_b\, {}^bM_c`
+(``Configuration.aMc``, ``Configuration.bMc``: the zone sits where the child part is). The child frame in the parent frame is the
 joint's finite relative motion, on which the contact conditions are written.
 """
 
@@ -56,9 +57,7 @@ def clearance_frames(equilibrium) -> dict[str, ClearanceFrames]:
         frames[joint.name] = ClearanceFrames(carried, placed[k] * clearance, p, k)
     for loop in mechanism.loop_joints:
         frame_a, frame_b = model.frames[loop.frame_a], model.frames[loop.frame_b]
-        side_a = (
-            placed[frame_a.parentJoint] * frame_a.placement * pin.SE3(loop.rotation, np.zeros(3))
-        )
+        side_a = placed[frame_a.parentJoint] * frame_a.placement * nominal.aMc[loop.name]
         side_b = placed[frame_b.parentJoint] * frame_b.placement * nominal.bMc[loop.name]
         frames[loop.name] = ClearanceFrames(
             side_a, side_b, frame_a.parentJoint, frame_b.parentJoint

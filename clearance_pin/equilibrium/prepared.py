@@ -193,9 +193,9 @@ class PreparedGeometry:
         (x (N, n), multipliers (N, m), sigma (N, 1)).
 
         Forces: a ball or disc pushes back along its image, :math:`f = -2\sigma\lambda_j
-        (S_j x) / c_j^2`; a slab side :math:`f = -\sigma\lambda_j s_j / c_j`.
+        (o_j + S_j x) / c_j^2`; a slab side :math:`f = -\sigma\lambda_j s_j / c_j`.
         """
-        image = x @ self._contact_rows.T
+        image = x @ self._contact_rows.T + self._contact_offsets
         if not image.shape[-1]:
             return image, image
         # a slab has one row, so |s^T x| is the root of its sum of squares too
@@ -297,6 +297,7 @@ def _geometry_terms(mechanism, geometry) -> dict:
         "x_from_y": scale[:, None] * geometry.basis,
         "joint_names": tuple(mechanism.joints),
         "_contact_rows": np.vstack([c.rows for c in contacts]) if contacts else np.zeros((0, n)),
+        "_contact_offsets": np.concatenate([c.offset for c in contacts]) if contacts else np.zeros(0),
         "bounds": bounds,
         "_contact_of_row": stack.row_contact,
         "_starts": stack.starts,

@@ -14,7 +14,9 @@ Reduction, in the scaled unknowns :math:`z = Z^{-1} x` (Z: clearance-sized scale
    (the potential is unbounded below); a load orthogonal to K leaves K indeterminate, and we
    return the minimum-norm optimum by restricting to the complement of K;
 3. :math:`x = Z Q y` with :math:`Q = N_E K^\perp` orthonormal, and each contact becomes
-   :math:`\|P_j y\| \le 1` with :math:`P_j = S_j Z Q / c_j`.
+   :math:`\|P_j y + o_j\| \le 1` with :math:`P_j = S_j Z Q / c_j` and :math:`o_j` the nominal
+   eccentricity of a misaligned loop joint over its play (zero for an aligned one,
+   :mod:`clearance_pin.kinematics.loop_frames`).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UnboundedLoadError
+from ..kinematics.loop_frames import nominal_offsets
 from ..model.clearance import COMPONENT_MEANING, COMPONENT_NAMES, ContactPoint
 from ..numerics import norm
 from .kkt import StackedContacts
@@ -44,11 +47,14 @@ class ContactConstraint:
         joint: joint name.
         contact: the contact point (its name, shape and bound).
         rows: map x -> bounded displacement components [m], shape (k, n).
+        offset: the bounded components at x = 0 [m], shape (k,): zero but for a loop joint with
+            a nominal eccentricity; the condition is :math:`\|o + S x\| \le c`.
     """
 
     joint: str
     contact: ContactPoint
     rows: np.ndarray
+    offset: np.ndarray
 
     @property
     def label(self) -> str:
@@ -188,7 +194,12 @@ def reduce_geometry(
             for i in range(free_x.shape[1])
         )
     )
-    stack = StackedContacts(matrices, [c.contact.shape for c in contacts], basis.shape[1])
+    stack = StackedContacts(
+        matrices,
+        [c.contact.shape for c in contacts],
+        basis.shape[1],
+        [c.offset / c.contact.bound for c in contacts],
+    )
     return ReducedGeometry(
         scale,
         basis,
@@ -310,10 +321,12 @@ def _constraints(maps: SmallDisplacementMaps, joints: dict):
             for component in joint.clearance.rigid_components:
                 equality_rows.append(torsor[component])
                 equality_joints.append(name)
+        offsets = nominal_offsets(joint, maps.eccentricity[name]) if is_loop else {}
         for contact in joint.clearance.contacts:
             rows = contact.linear_rows() @ torsor
             if contact.bound > 0.0:
-                contacts.append(ContactConstraint(name, contact, rows))
+                offset = offsets.get(contact.name, np.zeros(len(contact.components)))
+                contacts.append(ContactConstraint(name, contact, rows, offset))
             elif is_loop:
                 equality_rows.extend(rows)
                 equality_joints.extend([name] * rows.shape[0])

@@ -35,6 +35,8 @@ class SmallDisplacementMaps:
         joint_centre: per joint name, the clearance frame placement oM_c in the world (pin.SE3).
         variable_joint: per variable, the name of the tree joint it belongs to.
         variable_basis: per variable, its basis vector in that joint's torsor, (6,).
+        eccentricity: per loop joint, its child clearance frame in its parent one at this
+            configuration (identity when aligned; a misaligned housing otherwise).
     """
 
     body_twist: list[np.ndarray]
@@ -42,6 +44,7 @@ class SmallDisplacementMaps:
     joint_centre: dict[str, pin.SE3]
     variable_joint: tuple[str, ...]
     variable_basis: tuple[np.ndarray, ...]
+    eccentricity: dict[str, pin.SE3]
 
     @property
     def size(self) -> int:
@@ -81,8 +84,15 @@ def build_maps(
     data: pin.Data,
     tree_joints: tuple[TreeJoint, ...],
     loop_joints: tuple[LoopJoint, ...],
+    configuration=None,
 ) -> SmallDisplacementMaps:
-    """Build the maps at the configuration already placed in ``data`` (oMi and oMf up to date)."""
+    """Build the maps at the configuration already placed in ``data`` (oMi and oMf up to date).
+
+    ``configuration``: the :class:`~clearance_pin.mechanism.Configuration` placed in ``data``:
+    a loop joint's torsor is taken at its child-side clearance frame (``bMc``, where the journal,
+    block or ball is) and its contacts start from its eccentricity; default: at ``frame_a``,
+    aligned.
+    """
     variable_joint: list[str] = []
     variable_basis: list[np.ndarray] = []
     columns_of: dict[int, tuple[int, int]] = {}
@@ -100,6 +110,7 @@ def build_maps(
     body_twist = [np.zeros((6, n)) for _ in range(model.njoints)]
     joint_torsor: dict[str, np.ndarray] = {}
     joint_centre: dict[str, pin.SE3] = {}
+    eccentricity: dict[str, pin.SE3] = {}
     by_id = {joint.joint_id: joint for joint in tree_joints}
     for i in range(1, model.njoints):
         parent = model.parents[i]
@@ -115,12 +126,26 @@ def build_maps(
 
     for loop in loop_joints:
         frame_a, frame_b = model.frames[loop.frame_a], model.frames[loop.frame_b]
-        oMc = data.oMf[loop.frame_a] * pin.SE3(loop.rotation, np.zeros(3))
+        if configuration is None:
+            oMc = data.oMf[loop.frame_a] * pin.SE3(loop.rotation, np.zeros(3))
+            offset = pin.SE3.Identity()
+        else:
+            # at the child's clearance frame: the contact points are on the child, where it is
+            # (a spin of a journal about its own axis must not read as a translation at a
+            # misaligned housing's centre)
+            oMc = data.oMf[loop.frame_b] * configuration.bMc[loop.name]
+            offset = configuration.eccentricity(loop)
         relative = body_twist[frame_b.parentJoint] - body_twist[frame_a.parentJoint]
         joint_torsor[loop.name] = oMc.inverse().action @ relative
         joint_centre[loop.name] = oMc
+        eccentricity[loop.name] = offset
     return SmallDisplacementMaps(
-        body_twist, joint_torsor, joint_centre, tuple(variable_joint), tuple(variable_basis)
+        body_twist,
+        joint_torsor,
+        joint_centre,
+        tuple(variable_joint),
+        tuple(variable_basis),
+        eccentricity,
     )
 
 

@@ -188,8 +188,14 @@ class Clearance:
 
 
 def ideal(kind: str, length: float = 1.0) -> Clearance:
-    """An ideal joint (no play) of the given kind: every contact point has a zero bound."""
-    if kind in ("cylindrical", "revolute", "prismatic"):
+    """An ideal joint (no play) of the given kind: every contact point has a zero bound.
+
+    An ideal prismatic joint (a URDF ``prismatic`` joint) constrains what its URDF type
+    constrains: everything but the slide, so its block has a width and a height (the roll about
+    the axis is held too)."""
+    if kind == "prismatic":
+        return Clearance(kind, 0.0, length=length, width=length, height=length)
+    if kind in ("cylindrical", "revolute"):
         return Clearance(kind, 0.0, length=length)
     return Clearance(kind, 0.0)
 
