@@ -2,8 +2,10 @@ r"""Solve the reduced cone programme: a backend finds the optimum, a verified Ne
 
 Problem (see :mod:`.reduction`), dimensionless:
 
-.. math::  \min_y f^T y \quad \text{s.t.} \quad \|P_j y\| \le 1 \ (\text{ball, disc}),\quad
-           |p_j^T y| \le 1 \ (\text{slab})
+.. math::  \min_y f^T y \quad \text{s.t.} \quad \|P_j y + o_j\| \le 1 \ (\text{ball, disc}),\quad
+           |p_j^T y + o_j| \le 1 \ (\text{slab})
+
+(:math:`o_j`: a misaligned housing's nominal eccentricity over its play, usually 0).
 
 Paths, tried in this order:
 

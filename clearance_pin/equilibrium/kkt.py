@@ -2,10 +2,11 @@ r"""KKT system of the reduced cone programme, vectorised over all contacts, and 
 
 Problem (:mod:`.reduction`): :math:`\min f^T y` s.t. :math:`\phi_j(y) \le 0` with
 :math:`\phi_j = \|P_j y + o_j\|^2 - 1` (ball, disc) or :math:`\phi_j = s_j (p_j^T y + o_j) - 1`
-(slab side :math:`s_j = \pm 1`; :math:`o_j` a misaligned housing's eccentricity, usually 0). All :math:`P_j` are stacked into one matrix P (rows of contact j in
-``starts[j]:starts[j+1]``), so every evaluation is a few matrix products:
+(slab side :math:`s_j = \pm 1`; :math:`o_j` a misaligned housing's eccentricity, usually 0).
+All :math:`P_j` are stacked into one matrix P (rows of contact j in ``starts[j]:starts[j+1]``), so
+every evaluation is a few matrix products:
 
-.. math::  \nabla\phi_j = \sum_{rows\ i\ of\ j} w_i P_i, \quad w_i = 2 (P y)_i \ (\text{norm}),
+.. math::  \nabla\phi_j = \sum_{rows\ i\ of\ j} w_i P_i, \quad w_i = 2 (P y + o)_i \ (\text{norm}),
            \ s_j \ (\text{slab}); \qquad
            \nabla^2 L = P^T \mathrm{diag}(2\lambda_{j(i)} [\text{norm}]) P
 

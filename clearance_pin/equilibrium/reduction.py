@@ -64,7 +64,7 @@ class ContactConstraint:
 
 @dataclass(frozen=True)
 class ReducedProblem:
-    """Scaled, reduced cone programme :math:`\\min f^T y` s.t. :math:`\\|P_j y\\| \\le 1`.
+    """Scaled, reduced cone programme :math:`\\min f^T y` s.t. :math:`\\|P_j y + o_j\\| \\le 1`.
 
     Attributes:
         gradient: g, the potential's gradient in x [J per unit], (n,).

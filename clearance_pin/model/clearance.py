@@ -9,9 +9,7 @@ joint centre :math:`O_k`, x axis along the joint axis) their small relative moti
 clearance frame, [m]) is displaced by :math:`V + \Omega \times r` in the small-displacement model and
 by :math:`p + R r - r` in the exact one, where :math:`(R, p)` is the finite relative placement.
 
-Each kind (METHOD.md section 1, after Younes, Dal Santo & Potiron) declares:
-
-``rigid`` (a weld) and ``free`` (a floating body, no joint) complete the list.
+Each kind (docs/method.md section 2, after Younes, Dal Santo & Potiron) declares:
 
 - *free* components: the ideal joint's own motion (spin of a journal, swivel of a ball);
 - *rigid* components: zero whatever the load (the out-of-plane motion of a planar pin);
@@ -19,7 +17,10 @@ Each kind (METHOD.md section 1, after Younes, Dal Santo & Potiron) declares:
   clearance set: a ball or disc (``norm``, :math:`\|d_{sel}\| \le c`) or a slab (``abs``,
   :math:`|d_i| \le c`). The journal of a cylindrical joint, for example, has two contact points,
   the ends of its axis at :math:`x = \pm L/2`, each kept within the radial clearance ``c`` of the bore
-  axis: :math:`(v \mp \gamma L/2)^2 + (w \pm \beta L/2)^2 \le c^2` ([Y], cylindrical joint).
+  axis: :math:`(v + \gamma x)^2 + (w - \beta x)^2 \le c^2` at :math:`x = \pm L/2` ([Y], cylindrical
+  joint).
+
+``rigid`` (a weld) and ``free`` (a floating body, no joint) complete the list.
 
 A contact point with a zero clearance is a rigid condition; the solver turns it into equalities.
 """
