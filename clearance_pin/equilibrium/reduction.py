@@ -48,7 +48,7 @@ class ContactConstraint:
         contact: the contact point (its name, shape and bound).
         rows: map x -> bounded displacement components [m], shape (k, n).
         offset: the bounded components at x = 0 [m], shape (k,): zero but for a loop joint with
-            a nominal eccentricity; the condition is :math:`\|o + S x\| \le c`.
+            a nominal eccentricity; the condition is :math:`\\|o + S x\\| \\le c`.
     """
 
     joint: str
