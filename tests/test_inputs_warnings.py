@@ -196,3 +196,33 @@ def test_offset_tolerance_is_judged_against_the_length_scale():
     with pytest.warns(cp.SuspectValueWarning, match=r"16\.7 % of the mechanism's length scale"):
         mechanism = cp.loads(text)
     assert np.isclose(mechanism.length_scale(), 0.3)
+
+
+def test_a_universal_joint_cross_is_no_size():
+    """Two revolutes whose centres meet (a universal joint's cross) have no distance between
+    them: the play is judged against nothing rather than a round-off size (which read
+    "4.5e+11 % of its part's size 2.2e-16 m"); no warning."""
+    text = """<?xml version="1.0"?>
+<robot name="ujoint">
+  <link name="ground"/>
+  <link name="cross"><inertial><mass value="0.1"/>
+    <inertia ixx="1e-5" iyy="1e-5" izz="1e-5" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="arm"><inertial><mass value="1"/>
+    <inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="u1" type="revolute"><parent link="ground"/><child link="cross"/>
+    <origin xyz="0.1 0.2 0.3"/><axis xyz="1 0 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="u2" type="revolute"><parent link="cross"/><child link="arm"/>
+    <origin xyz="1e-17 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <clearance_pin>
+    <joint name="u1" type="planar_revolute" radial_clearance="1e-06" driven="true"/>
+    <joint name="u2" type="planar_revolute" radial_clearance="1e-06" driven="true"/>
+  </clearance_pin>
+</robot>
+"""
+    from clearance_pin.model.model_file import loads
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cp.ClearancePinWarning)
+        loads(text, source="ujoint")

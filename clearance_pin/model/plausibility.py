@@ -32,6 +32,7 @@ from .clearance import ALPHA
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT
 
 CLEARANCE_FRACTION = 0.05  # of the part's size; real plays are 1e-4 .. 1e-2 of it
+ROUND_OFF_SIZE = 1e-9  # of the length scale: distances below it are round-off, not a size
 TOLERANCE_FRACTION = 0.10  # half tolerance over nominal size; ISO IT18 is about 3 % at 500 mm
 ANGLE_TOLERANCE = 0.1  # [rad] half tolerance of an angle (5.7 deg)
 TURN = 2.0 * math.pi  # [rad]
@@ -72,7 +73,9 @@ def part_size(mechanism, joint) -> float:
         centres = joint_centres(mechanism, body)
         for a, b in itertools.combinations(centres, 2):
             size = max(size, float(np.linalg.norm(a - b)))
-    return size
+    # joint centres that meet (the cross of a universal joint written as two revolutes) differ
+    # by round-off only: that is no size
+    return size if size > ROUND_OFF_SIZE * mechanism.length_scale() else 0.0
 
 
 def warn_large_clearances(mechanism, stacklevel: int = 2) -> None:
