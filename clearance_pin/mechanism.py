@@ -181,13 +181,17 @@ class Mechanism:
         )
 
     def length_scale(self) -> float:
-        """Characteristic length [m]: the largest distance of a joint origin from the root."""
+        """Characteristic length [m]: the larger of the largest distance of a joint origin from
+        the root at the nominal configuration and the largest journal or block length of a joint
+        with play (1 m when both are 0; an ideal joint's length is only a placeholder)."""
         if not hasattr(self, "_length_scale"):
             data = self.model.createData()
             pin.forwardKinematics(self.model, data, self.q_nominal)
             pin.updateFramePlacements(self.model, data)
             extent = max((np.linalg.norm(m.translation) for m in data.oMi), default=0.0)
-            lengths = [j.clearance.length for j in self.joints.values()]
+            lengths = [
+                j.clearance.length for j in self.joints.values() if j.clearance.max_play > 0.0
+            ]
             self._length_scale = max([extent, *lengths]) or 1.0
         return self._length_scale
 
