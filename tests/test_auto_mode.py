@@ -1,4 +1,4 @@
-"""exact='auto': the linear model's second-order error estimate decides whether the exact runs."""
+"""exact='auto': the estimate of exact - linear at the outputs decides whether the exact runs."""
 
 from __future__ import annotations
 
@@ -6,10 +6,11 @@ import sys
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import clearance_pin as cp
-from clearance_pin.equilibrium.second_order import boundary_errors, linear_model_error
+from clearance_pin.equilibrium.second_order import boundary_errors
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "validation"))
@@ -23,11 +24,14 @@ CASES = {
 
 @pytest.mark.parametrize("case_id", sorted(CASES))
 def test_estimate_does_not_underestimate_the_exact_difference(case_id):
-    """On every paper case the estimate is at least half the true |exact - linear| difference."""
-    exact = build(CASES[case_id]).solve(exact=True)
-    actual = exact.difference["translation_m"]
-    estimate = linear_model_error(exact.linear)
-    assert estimate >= 0.5 * actual - 1e-15
+    """On every paper case the estimate at each output is at least the true |exact - linear|
+    difference there (the exact model is an independent CasADi solve)."""
+    mechanism = build(CASES[case_id])
+    auto = mechanism.solve(exact="auto", accuracy=1.0)  # never runs exact: the estimate alone
+    assert auto.formulation == "linear"
+    exact = mechanism.solve(exact=True)
+    for name, (translation, _) in exact.difference["outputs"].items():
+        assert auto.difference_bound["outputs"][name][0] >= np.linalg.norm(translation)
 
 
 def test_auto_runs_exact_for_large_play_and_says_why():
@@ -42,7 +46,8 @@ def test_auto_keeps_linear_for_pure_translation():
     result = build(CASES["6.2.2"]).solve(exact="auto", accuracy=1e-9)
     assert result.formulation == "linear"
     assert "kept" in result.note
-    assert result.residuals["second_order_m"] < 1e-15
+    # the estimate is the verification floor, 1e-9 of the 0.15 mm play
+    assert result.residuals["second_order_m"] <= 1e-9 * 1.5e-4 * 1.01
 
 
 def test_exact_solution_sits_on_the_boundary():

@@ -539,14 +539,34 @@ def _assemble(
     )
 
 
-def _difference(exact: Equilibrium, linear: Equilibrium) -> dict[str, float]:
-    translation = max(
-        np.max(np.abs(exact.torsors[k][:3] - linear.torsors[k][:3])) for k in exact.torsors
-    )
-    rotation = max(
-        np.max(np.abs(exact.torsors[k][3:] - linear.torsors[k][3:])) for k in exact.torsors
-    )
-    return {"translation_m": float(translation), "rotation_rad": float(rotation)}
+def _difference(exact: Equilibrium, linear: Equilibrium) -> dict:
+    """Exact - linear at the outputs of ``linear`` (which the exact answer takes over): per
+    output (translation (3,) [m], rotation (3,) [rad]), world axes, their largest norms, and the
+    largest difference of a joint torsor component (see ``Equilibrium.difference``)."""
+    from .outputs import output_displacements, resolve_outputs
+
+    points = linear.output_points or resolve_outputs(linear.mechanism)
+    exact.output_points = points
+    moved_exact = output_displacements(exact, points)
+    moved_linear = output_displacements(linear, points)
+    outputs = {
+        name: (moved_exact[name][0] - t, moved_exact[name][1] - r)
+        for name, (t, r) in moved_linear.items()
+    }
+    joints = exact.torsors
+    return {
+        "translation_m": max((float(np.linalg.norm(t)) for t, _ in outputs.values()), default=0.0),
+        "rotation_rad": max((float(np.linalg.norm(r)) for _, r in outputs.values()), default=0.0),
+        "outputs": outputs,
+        "torsor_translation_m": max(
+            (float(np.max(np.abs(joints[k][:3] - linear.torsors[k][:3]))) for k in joints),
+            default=0.0,
+        ),
+        "torsor_rotation_rad": max(
+            (float(np.max(np.abs(joints[k][3:] - linear.torsors[k][3:]))) for k in joints),
+            default=0.0,
+        ),
+    }
 
 
 __all__ = ["ExactProblem", "solve_exact_model", "independent_rows", "null_space"]

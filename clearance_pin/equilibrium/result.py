@@ -70,8 +70,16 @@ class Equilibrium:
         free_motions: motions that no contact sees, left at zero (minimum-norm optimum).
         build_time, solve_time: [s]; build_time is 0 when a built problem was re-used.
         polished: the active-set Newton polish was accepted.
-        difference: when both formulations ran, max |exact - linear| over the torsor components,
-            ``{"translation_m": float, "rotation_rad": float}``.
+        difference: when both formulations ran, exact - linear where users look, at the
+            outputs (:attr:`outputs`): ``{"translation_m", "rotation_rad"}``: the largest norm
+            over the outputs [m, rad]; ``"outputs"``: name -> (translation (3,) [m], rotation
+            (3,) [rad]), world axes; ``"torsor_translation_m"``, ``"torsor_rotation_rad"``: the
+            largest difference of a joint torsor component [m, rad].
+        difference_bound: ``exact="auto"``: the estimate of that difference at every output,
+            from the linear answer alone (:mod:`.second_order`): ``{"translation_m",
+            "rotation_rad", "outputs": name -> (bound [m], bound [rad]), "reliable", "reason"}``.
+        output_points: the points whose displacement :attr:`outputs` reports
+            (:class:`~.outputs.OutputPoint`; empty: the leaf links).
         linear: the small-displacement equilibrium that seeded an exact solve, if any.
         body_placements: world placement (pin.SE3) of every Pinocchio joint frame at the solved
             pose, index = joint id (0 = ground). Exact: the finite motion; linear: the rigid
@@ -103,6 +111,8 @@ class Equilibrium:
     configuration: object = field(default=None, repr=False)
     body_twists: np.ndarray | None = field(default=None, repr=False)
     note: str = ""
+    output_points: tuple = field(default=(), repr=False)
+    difference_bound: dict | None = None
 
     @property
     def ok(self) -> bool:
@@ -150,6 +160,18 @@ class Equilibrium:
         )
 
     @property
+    def outputs(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        r"""World displacement of every output: name -> (translation (3,) [m] of the frame's
+        origin or of the load point, rotation (3,) [rad]), world axes. Outputs: the loaded points
+        (``link@[x y z]``, link frame) and the frames asked for in ``solve(outputs=...)``
+        (default: the leaf links). Linear: :math:`(v + \omega \times p, \omega)`; exact: the
+        finite displacement, rotation as log3 (:mod:`.outputs`)."""
+        from .outputs import output_displacements, resolve_outputs
+
+        points = self.output_points or resolve_outputs(self.mechanism)
+        return output_displacements(self, points)
+
+    @property
     def active_contacts(self) -> tuple[Contact, ...]:
         """The contacts that carry load."""
         return tuple(c for c in self.contacts if c.active)
@@ -188,7 +210,12 @@ class Equilibrium:
             "polished": self.polished,
             "build_time_s": self.build_time,
             "solve_time_s": self.solve_time,
-            "difference_exact_linear": self.difference,
+            "outputs": {
+                name: {"translation": (t * length).tolist(), "rotation_rad": r.tolist()}
+                for name, (t, r) in self.outputs.items()
+            },
+            "difference_exact_linear": _difference_dict(self.difference, length),
+            "difference_bound": _difference_dict(self.difference_bound, length),
             "note": self.note,
         }
 
@@ -225,12 +252,63 @@ class Equilibrium:
         )
         if self.note:
             lines.append(self.note)
+        measured = (self.difference or {}).get("outputs", {})
+        bounds = (self.difference_bound or {}).get("outputs", {})
+        header = f"{'output':<30}{'displacement [' + unit + ']':>26}{'[urad]':>12}"
+        if measured:
+            header += f"{'exact - linear [' + unit + ']':>24}{'[urad]':>10}"
+        if bounds:
+            header += f"{'estimate [' + unit + ']':>16}"
+        lines.append(header)
+        for name, (t, r) in self.outputs.items():
+            line = f"{name:<30}{np.linalg.norm(t) * length:>26.4f}{np.linalg.norm(r) * 1e6:>12.4f}"
+            if name in measured:
+                dt, dr = measured[name]
+                line += f"{np.linalg.norm(dt) * length:>24.4e}{np.linalg.norm(dr) * 1e6:>10.3g}"
+            if name in bounds:
+                line += f"{bounds[name][0] * length:>16.4e}"
+            lines.append(line)
         if self.difference:
             lines.append(
                 f"exact - linear: {self.difference['translation_m'] * length:.3e} {unit}, "
-                f"{self.difference['rotation_rad']:.3e} rad"
+                f"{self.difference['rotation_rad']:.3e} rad at the outputs"
             )
         return "\n".join(lines)
+
+
+def _difference_dict(difference: dict | None, length: float) -> dict | None:
+    """``difference`` / ``difference_bound`` JSON-ready: lengths times ``length``, arrays as
+    lists, per output ``{"translation", "rotation_rad"}``."""
+    if difference is None:
+        return None
+    out = {}
+    for key, value in difference.items():
+        if key == "outputs":
+            out[key] = {
+                name: {
+                    "translation": _finite(np.asarray(t, dtype=float) * length),
+                    "rotation_rad": _finite(np.asarray(r, dtype=float)),
+                }
+                for name, (t, r) in value.items()
+            }
+        elif key.endswith("_m"):
+            out[key.removesuffix("_m")] = _finite(np.asarray(float(value) * length))
+        elif key.endswith("_rad"):
+            out[key] = _finite(np.asarray(float(value)))
+        else:
+            out[key] = value
+    return out
+
+
+def _finite(values: np.ndarray):
+    """A number or list for JSON; None for an unknown (infinite or NaN) estimate."""
+    if not np.all(np.isfinite(values)):
+        return None
+    return values.tolist()
+
+
+def _scaled_point(point, length: float):
+    return None if point is None else (np.asarray(point) * length).tolist()
 
 
 def _scaled_torsor(torsor: np.ndarray, length: float) -> np.ndarray:
