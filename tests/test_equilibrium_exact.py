@@ -84,7 +84,7 @@ def test_exact_tends_to_linear_at_second_order(factory):
         # positions of ~1 m carry round-off of ~1e-16 m: 1e-10 of a micrometre play is that level
         assert exact.residuals["max_violation_m"] <= 1e-10 * play
         difference = translation_difference(exact)
-        assert difference == pytest.approx(exact.difference["translation_m"], rel=1e-12)
+        assert difference == pytest.approx(exact.difference["torsor_translation_m"], rel=1e-12)
         differences.append(difference)
         relative.append(difference / play)
     slope = np.polyfit(np.log(SCALES), np.log(differences), 1)[0]

@@ -101,8 +101,8 @@ def solve_case(case: dict, check: bool) -> dict:
         for name, eq in (("linear", linear), ("exact", exact)):
             record[name]["check"] = eq.check().to_json(length=MM)
     record["exact_minus_linear"] = {
-        "translation_mm": exact.difference["translation_m"] * MM,
-        "rotation_rad": exact.difference["rotation_rad"],
+        "translation_mm": exact.difference["torsor_translation_m"] * MM,
+        "rotation_rad": exact.difference["torsor_rotation_rad"],
     }
     return record
 
