@@ -255,6 +255,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
                 multipliers[k],
                 seed.signs,
                 table[k],
+                mechanism.resolve_loads(cases[i][0], options["gravity"]),
             )
         x_all[pending[verified]] = x[verified]
         batched[pending[verified]] = True
@@ -299,13 +300,14 @@ def _unique(stack, seed, y, multipliers, verified):
     return verified & (singular[:, -1] > 1e-9 * singular[:, 0])
 
 
-def _lazy_item(prepared, load, y, multipliers, signs, table):
-    """The Equilibrium of one batched case, assembled when first read."""
+def _lazy_item(prepared, load, y, multipliers, signs, table, loads=None):
+    """The Equilibrium of one batched case, assembled when first read (``loads``: the case's
+    resolved loads, kept for the joint reactions)."""
 
     def build():
         from .solve import _assemble
 
-        return _assemble(
+        equilibrium = _assemble(
             prepared,
             loaded_problem(prepared.geometry, *load),
             y,
@@ -319,6 +321,8 @@ def _lazy_item(prepared, load, y, multipliers, signs, table):
             0.0,
             dict(zip(RESIDUAL_NAMES, map(float, table))),
         )
+        equilibrium.loads = loads
+        return equilibrium
 
     return build
 

@@ -28,6 +28,7 @@ from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
 from .kkt import ACCEPT_KKT
+from .reactions import frames_at
 from .result import Contact, Equilibrium
 from .small_displacement import null_space, tree_joint_basis
 
@@ -321,6 +322,7 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     equilibrium.build_time = exact.build_time if built_now else 0.0
     equilibrium.solve_time = time.perf_counter() - solve_started
     equilibrium.linear = linear
+    equilibrium.loads = tuple(loads)  # for the joint reactions
     equilibrium.difference = _difference(equilibrium, linear)
     if not equilibrium.ok:
         raise SolverError(

@@ -3,7 +3,15 @@
 Conventions: SI units; a joint torsor is (u, v, w, alpha, beta, gamma) [m, rad] of the child part
 relative to the parent at the joint centre, in the joint's clearance frame (x = joint axis).
 A contact force [N] is the force the parent part exerts on the child at a contact point, in the
-clearance frame.
+joint's (parent-side) clearance frame axes; ``Contact.position`` is that point in the same frame and
+``Contact.world_position`` in the world. Small-displacement model: at the nominal pose (the child's
+contact point at its nominal place); exact model: at the solved pose (the child's contact point
+where it is, in the parent-side clearance frame where it is).
+A joint reaction (:meth:`Equilibrium.reaction`, :class:`~.reactions.Reaction`) is the wrench [N, N m]
+the parent part exerts on the child through the joint: clearance-frame axes and moment about the
+joint centre (``frame="joint"``), or world axes and moment about the world origin
+(``frame="world"``); contact forces + rigid directions + drive. A body twist is at the world
+origin, world axes; loads are given in world axes.
 """
 
 from __future__ import annotations
@@ -29,6 +37,11 @@ class Contact:
         clearance: the clearance that bounds the point [m].
         force: force of the parent on the child at that point [N], clearance frame, (3,).
         active: the point touches (gap within tolerance of zero and a force may act).
+        position: where the force acts [m], (3,): the child's contact point in the same
+            clearance frame as ``force``; small-displacement model: its nominal place, exact
+            model: where it is at the solved pose.
+        world_position: the same point in world coordinates [m], (3,) (nominal pose for the
+            small-displacement model, solved pose for the exact one).
     """
 
     joint: str
@@ -37,6 +50,8 @@ class Contact:
     clearance: float
     force: np.ndarray
     active: bool
+    position: np.ndarray | None = None
+    world_position: np.ndarray | None = None
 
     @property
     def label(self) -> str:
@@ -89,6 +104,8 @@ class Equilibrium:
         body_twists: linear formulation: the spatial twist (v, omega) at the world origin of every
             body, shape (njoints, 6) [m, rad].
         note: how the formulation was chosen (``exact="auto"``).
+        loads: the loads the equilibrium was solved for (gravity included), None when unknown;
+            :meth:`reaction` needs them.
     """
 
     formulation: str
@@ -111,6 +128,7 @@ class Equilibrium:
     configuration: object = field(default=None, repr=False)
     body_twists: np.ndarray | None = field(default=None, repr=False)
     note: str = ""
+    loads: tuple | None = field(default=None, repr=False)
     output_points: tuple = field(default=(), repr=False)
     difference_bound: dict | None = None
 
@@ -171,6 +189,28 @@ class Equilibrium:
         points = self.output_points or resolve_outputs(self.mechanism)
         return output_displacements(self, points)
 
+    def reaction(self, joint: str, frame: str = "joint"):
+        """The wrench the parent part exerts on the child part through ``joint`` (for a loop
+        joint the parent is ``frame_a``'s part): contact forces + rigid directions + drive torque.
+
+        Args:
+            joint: joint name (tree or loop).
+            frame: ``"joint"``: clearance-frame axes, moment about the joint centre (nominal pose
+                for the small-displacement model, parent side at the solved pose for the exact
+                one); ``"world"``: world axes, moment about the world origin.
+
+        Returns:
+            :class:`~clearance_pin.equilibrium.reactions.Reaction` (force [N], moment [N m],
+            its parts and the residual of the per-body statics they were recovered from).
+        """
+        from .reactions import joint_reactions
+
+        reactions = self.__dict__.get("_reactions")
+        if reactions is None:
+            reactions = joint_reactions(self)
+            self.__dict__["_reactions"] = reactions
+        return reactions.reaction(joint, frame)
+
     @property
     def active_contacts(self) -> tuple[Contact, ...]:
         """The contacts that carry load."""
@@ -199,6 +239,8 @@ class Equilibrium:
                     "active": c.active,
                     "gap": c.gap * length,
                     "force_N": c.force.tolist(),
+                    "position": _scaled_point(c.position, length),
+                    "world_position": _scaled_point(c.world_position, length),
                 }
                 for c in self.contacts
             ],

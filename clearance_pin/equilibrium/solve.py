@@ -114,6 +114,7 @@ def solve_linear(
                 "not run",
                 indeterminate.residuals,
             )
+        indeterminate.loads = tuple(loads)  # for the joint reactions
         return indeterminate
     built, built_now = backend_for(problem, backend, tol, prepared.signature)
     warm_key = ("warm", prepared.signature)
@@ -162,6 +163,7 @@ def solve_linear(
             solution.status,
             equilibrium.residuals,
         )
+    equilibrium.loads = tuple(loads)  # for the joint reactions
     return equilibrium
 
 
@@ -214,7 +216,16 @@ def _assemble(
     )
     contacts = LazySequence(
         lambda: (
-            Contact(c.joint, c.contact.name, float(gap), float(bound), force, bool(touching))
+            Contact(
+                c.joint,
+                c.contact.name,
+                float(gap),
+                float(bound),
+                force,
+                bool(touching),
+                np.array(c.contact.point),  # nominal place, in the joint's clearance frame
+                prepared.maps.joint_centre[c.joint].act(np.array(c.contact.point)),
+            )
             for c, gap, bound, force, touching in zip(
                 problem.contacts, gaps, bounds, prepared.contact_forces(force_rows), active
             )

@@ -1,0 +1,291 @@
+r"""Joint reactions: the wrench the parent part exerts on the child part through every joint.
+
+A joint's reaction :math:`W_j = (f, m)` [N, N m] is the sum of three parts:
+
+- *contact*: the joint's contact forces (known from the solve), each applied at its contact point;
+- *rigid*: the reactions of the components the joint does not let move (rigid components, contact
+  points without play), :math:`G_j \mu_j`;
+- *drive*: for a driven joint, the drive torque (or force) that locks its own motion,
+  :math:`D_j \tau_j`.
+
+The solver eliminates rigid and locked components (null-space reduction), so their multipliers
+are recovered afterwards from the statics of every moving body b (world axes, moments about b's
+frame origin :math:`o_b`):
+
+.. math::  L_b + \sum_{j:\ \mathrm{child}(j) = b} W_j - \sum_{j:\ \mathrm{parent}(j) = b} W_j = 0
+
+with :math:`L_b` the body's loads. The unknowns :math:`(\mu, \tau)` solve these 6 equations per
+body by least squares, minimum norm (forces [N] and moments / L_ref [N]) where the mechanism is
+statically indeterminate; the relative residual of that least squares is reported, so an
+unbalanced answer is visible.
+
+Where the wrenches act:
+
+- small-displacement model: the nominal pose; contact forces and rigid directions in the joint's
+  clearance frame at its centre (``SmallDisplacementMaps.joint_centre``), loads at their nominal
+  points;
+- exact model: the solved pose (``Equilibrium.body_placements``). A contact force acts on the
+  child's contact point where it is, in the parent-side clearance frame's axes
+  (:mod:`.exact`). A rigid direction is the gradient of the exact model's own condition with
+  respect to the child's motion :math:`\nu` (right perturbation of the relative placement
+  :math:`M = C_a^{-1} C_b`, child-side clearance frame): for a tree joint, whose motion is
+  :math:`M = \exp(B t)`, the fixed combinations :math:`A \log_6 M = 0` give
+  :math:`G = J_{\log_6}(M)^T A^T`; for a loop joint the conditions of :mod:`.exact`
+  (:math:`p_i = 0`, :math:`(R e_x)_{y,z} = 0`, :math:`\mathrm{vee}((R - R^T)/2) = 0`, contact
+  points without play :math:`S (p + R r - r) = 0`). Loads are dead loads at the moved points; a
+  torque C does the work of a couple of dead loads, :math:`C\cdot\mathrm{vee}((A - A^T)/2)`,
+  :math:`A = R_b R_{b0}^T`, so its moment at the solved pose is
+  :math:`\tfrac12 (\mathrm{tr}(A) I - A^T) C` (C to first order).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import SimpleNamespace
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import ClearancePinError
+from ..model.clearance import ALPHA, BETA, GAMMA
+from .load_terms import gather_body_loads
+from .poses import clearance_frames
+from .small_displacement import null_space, tree_joint_basis
+
+FRAMES = ("joint", "world")
+
+
+@dataclass(frozen=True)
+class Reaction:
+    """The wrench that the parent part exerts on the child part through one joint.
+
+    For a loop joint the parent is ``frame_a``'s part.
+
+    Attributes:
+        joint: joint name.
+        frame: ``"joint"``: the joint's clearance-frame axes (parent side, x = joint axis),
+            moment about the joint centre; ``"world"``: world axes, moment about the world
+            origin. Small-displacement model: at the nominal pose; exact: at the solved pose.
+        force: resultant force [N], (3,).
+        moment: resultant moment [N m] about ``point``, (3,).
+        point: the point about which the moment is taken, in world coordinates [m], (3,).
+        contact: the part carried by the joint's contact forces, (force, moment) (6,) [N, N m],
+            same axes and point.
+        rigid: the part carried by its rigid directions (rigid components, contact points
+            without play), (6,).
+        drive: the drive torque (or force) of a driven joint, (6,); zero otherwise.
+        residual: relative residual of the per-body statics from which the rigid and drive parts
+            were recovered (whole mechanism; round-off for a balanced answer), see
+            :mod:`clearance_pin.equilibrium.reactions`.
+    """
+
+    joint: str
+    frame: str
+    force: np.ndarray
+    moment: np.ndarray
+    point: np.ndarray
+    contact: np.ndarray
+    rigid: np.ndarray
+    drive: np.ndarray
+    residual: float
+
+    @property
+    def wrench(self) -> np.ndarray:
+        """(force, moment) (6,) [N, N m]."""
+        return np.concatenate([self.force, self.moment])
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        """``np.asarray(reaction)``: the wrench (force, moment) (6,)."""
+        return self.wrench if dtype is None else self.wrench.astype(dtype)
+
+
+@dataclass(frozen=True)
+class JointReactions:
+    """Every joint's reaction parts as wrenches at the world origin, world axes (6,) each.
+
+    Attributes:
+        contact, rigid, drive: joint name -> (force [N], moment about the origin [N m]) (6,).
+        joint_frames: joint name -> world placement (pin.SE3) of the frame of ``frame="joint"``.
+        residual: relative residual of the per-body least squares (see the module docstring).
+    """
+
+    contact: dict
+    rigid: dict
+    drive: dict
+    joint_frames: dict
+    residual: float
+
+    def reaction(self, joint: str, frame: str = "joint") -> Reaction:
+        """The :class:`Reaction` of ``joint`` in ``frame`` (``"joint"`` or ``"world"``)."""
+        if joint not in self.contact:
+            raise ClearancePinError(
+                f"reaction: unknown joint {joint!r}; the joints are: {', '.join(self.contact)}"
+            )
+        if frame not in FRAMES:
+            raise ClearancePinError(f"reaction: frame must be 'joint' or 'world', got {frame!r}")
+        parts = [self.contact[joint], self.rigid[joint], self.drive[joint]]
+        point = np.zeros(3)
+        if frame == "joint":
+            placement = self.joint_frames[joint]
+            parts = [placement.actInv(pin.Force(part)).vector for part in parts]
+            point = placement.translation.copy()
+        total = parts[0] + parts[1] + parts[2]
+        return Reaction(
+            joint, frame, total[:3], total[3:], point, parts[0], parts[1], parts[2], self.residual
+        )
+
+
+def joint_reactions(equilibrium) -> JointReactions:
+    """Recover every joint's reaction of ``equilibrium`` (see the module docstring)."""
+    if equilibrium.loads is None:
+        raise ClearancePinError(
+            "this equilibrium does not carry the loads it was solved for (Equilibrium.loads), so "
+            "its joint reactions cannot be recovered; solve it with Mechanism.solve"
+        )
+    mechanism = equilibrium.mechanism
+    model = mechanism.model
+    exact = equilibrium.formulation == "exact" and equilibrium.status != "indeterminate"
+    nominal = equilibrium.configuration
+    placements = tuple(equilibrium.body_placements) if exact else nominal.oMi
+    frames = frames_at(mechanism, nominal, placements)
+    length = mechanism.length_scale()
+    bodies = model.njoints
+
+    loads = _body_wrenches(mechanism, equilibrium.loads, placements, nominal.oMi, exact)
+    contact = {name: np.zeros(6) for name in mechanism.joints}
+    for c in equilibrium.contacts:
+        local = pin.Force(c.force, np.cross(c.position, c.force))
+        contact[c.joint] += frames[c.joint].parent.act(local).vector
+
+    columns, owners = [], []  # generator wrenches at the world origin, (joint, part) of each
+    for name, joint in mechanism.joints.items():
+        for part, local, placement in _generators(joint, frames[name], exact):
+            for column in local.T:
+                columns.append(placement.act(pin.Force(column)).vector)
+                owners.append((name, part))
+
+    # body equations at each body's own origin, moments over L_ref: forces and moments compare
+    origins = [placements[b].translation for b in range(bodies)]
+
+    def at_body(wrench: np.ndarray, body: int) -> np.ndarray:
+        force = wrench[:3]
+        return np.concatenate([force, (wrench[3:] - np.cross(origins[body], force)) / length])
+
+    def scatter(wrench: np.ndarray, name: str) -> np.ndarray:
+        rows = np.zeros(6 * bodies)
+        parent, child = frames[name].parent_body, frames[name].child_body
+        rows[6 * child : 6 * child + 6] += at_body(wrench, child)
+        rows[6 * parent : 6 * parent + 6] -= at_body(wrench, parent)
+        return rows[6:]  # the ground needs no balance
+
+    known = np.zeros(6 * bodies)
+    for body, wrench in loads.items():
+        known[6 * body : 6 * body + 6] += at_body(wrench, body)
+    known = known[6:]
+    # the reference is the load (the contact forces' size when nothing is loaded)
+    reference = float(np.linalg.norm(known.reshape(-1, 6), axis=1).sum())
+    for name, wrench in contact.items():
+        known += scatter(wrench, name)
+    if reference == 0.0:
+        reference = float(np.linalg.norm(known.reshape(-1, 6), axis=1).sum())
+
+    matrix = np.array([scatter(c, name) for c, (name, _) in zip(columns, owners)]).T
+    matrix = matrix.reshape(6 * (bodies - 1), len(columns))
+    if matrix.shape[1]:
+        sizes = np.linalg.norm(matrix, axis=0)
+        sizes[sizes == 0.0] = 1.0
+        solution = np.linalg.lstsq(matrix / sizes, -known, rcond=None)[0] / sizes
+    else:
+        solution = np.zeros(0)
+    imbalance = (known + matrix @ solution).reshape(-1, 6)
+    largest = float(np.linalg.norm(imbalance, axis=1).max(initial=0.0))
+    residual = largest / reference if reference > 0.0 else largest
+
+    rigid = {name: np.zeros(6) for name in mechanism.joints}
+    drive = {name: np.zeros(6) for name in mechanism.joints}
+    for column, (name, part), value in zip(columns, owners, solution):
+        (rigid if part == "rigid" else drive)[name] += value * column
+    joint_frames = {name: frames[name].parent for name in mechanism.joints}
+    return JointReactions(contact, rigid, drive, joint_frames, float(residual))
+
+
+def frames_at(mechanism, configuration, placements) -> dict:
+    """:func:`~.poses.clearance_frames` of every joint for body placements given as pin.SE3 or
+    (3, 4) [R | t] arrays (index = Pinocchio joint id, 0 = ground), before an Equilibrium exists."""
+    placed = tuple(
+        p if isinstance(p, pin.SE3) else pin.SE3(np.asarray(p)[:, :3], np.asarray(p)[:, 3])
+        for p in placements
+    )
+    return clearance_frames(
+        SimpleNamespace(mechanism=mechanism, configuration=configuration, body_placements=placed)
+    )
+
+
+def _body_wrenches(mechanism, loads, placements, nominal_oMi, exact: bool) -> dict[int, np.ndarray]:
+    """Per body, its loads as one wrench (force [N], moment about the world origin [N m]) at the
+    pose ``placements``: dead loads at their moved points, and for the exact model the moment
+    :math:`\\tfrac12 (\\mathrm{tr}(A) I - A^T) C` of a torque (module docstring)."""
+    placed = SimpleNamespace(oMi=placements)
+    gathered = gather_body_loads(mechanism.model, placed, tuple(loads), mechanism.link_frames)
+    wrenches = {}
+    for body, load in gathered.items():
+        wrench = load.wrench.copy()
+        if exact and np.any(load.torque):
+            turn = placements[body].rotation @ nominal_oMi[body].rotation.T
+            moment = 0.5 * (np.trace(turn) * np.eye(3) - turn.T) @ load.torque
+            wrench[3:] += moment - load.torque
+        wrenches[body] = wrench
+    return wrenches
+
+
+def _generators(joint, frames, exact: bool):
+    """(part, local wrenches (6, k), placement of the frame they are written in) of a joint's
+    rigid directions and drive (module docstring)."""
+    if hasattr(joint, "joint_id"):
+        return _tree_generators(joint, frames, exact)
+    return _loop_generators(joint, frames, exact)
+
+
+def _tree_generators(joint, frames, exact: bool):
+    basis = tree_joint_basis(joint)
+    drive = []
+    for component in joint.locked_components:
+        unit = np.eye(6)[component]
+        direction = unit - basis @ (basis.T @ unit)
+        drive.append(direction / np.linalg.norm(direction))
+    drive = np.array(drive).reshape(-1, 6).T
+    rigid = null_space(np.hstack([basis, drive]).T)
+    if not exact:
+        return [("rigid", rigid, frames.parent), ("drive", drive, frames.parent)]
+    dual = pin.Jlog6(frames.relative).T
+    return [("rigid", dual @ rigid, frames.child), ("drive", dual @ drive, frames.child)]
+
+
+def _loop_generators(loop, frames, exact: bool):
+    clearance = loop.clearance
+    rigid = list(clearance.rigid_components)
+    fixed_points = [p for p in clearance.contacts if p.bound == 0.0]
+    columns = []
+    if not exact:
+        columns += [np.eye(6)[c] for c in rigid]
+        columns += [row for p in fixed_points for row in p.linear_rows()]
+        return [("rigid", np.array(columns).reshape(-1, 6).T, frames.parent)]
+    rotation = frames.relative.rotation
+    rotations = {c for c in rigid if c >= ALPHA}
+    for c in rigid:
+        if c < ALPHA:
+            columns.append(np.concatenate([rotation[c], np.zeros(3)]))  # R^T e_c
+    if rotations == {BETA, GAMMA}:
+        axis = np.eye(3)[0]
+        columns += [np.concatenate([np.zeros(3), np.cross(axis, rotation[k])]) for k in (1, 2)]
+    elif rotations:
+        turn = 0.5 * (np.trace(rotation) * np.eye(3) - rotation)
+        columns += [np.concatenate([np.zeros(3), turn[:, c - ALPHA]]) for c in sorted(rotations)]
+    for point in fixed_points:
+        r = np.asarray(point.point, dtype=float)
+        for c in point.components:
+            columns.append(np.concatenate([rotation[c], np.cross(r, rotation[c])]))
+    return [("rigid", np.array(columns).reshape(-1, 6).T, frames.child)]
+
+
+__all__ = ["JointReactions", "Reaction", "frames_at", "joint_reactions"]
