@@ -275,13 +275,10 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     """Solve the exact model from the linear equilibrium ``linear``; residuals measured."""
     from .solve import linear_setup
 
-    if linear.status == "indeterminate":
-        return replace(
-            linear,
-            formulation="exact",
-            linear=linear,
-            difference={"translation_m": 0.0, "rotation_rad": 0.0},
-        )
+    if linear.status == "indeterminate":  # nothing moves: the exact answer is the nominal one
+        unmoved = replace(linear, formulation="exact", linear=linear)
+        unmoved.difference = _difference(unmoved, linear)
+        return unmoved
     configuration, _maps, body_loads, problem = linear_setup(mechanism, loads, q)
     rows = independent_rows(problem.equalities, problem.scale)
     key = ("exact", problem.signature(), problem.free_motions.shape[1], rows, tol)
