@@ -21,9 +21,9 @@ unbalanced answer is visible.
 
 Where the wrenches act:
 
-- small-displacement model: the nominal pose; contact forces and rigid directions in the joint's
-  clearance frame at its centre (``SmallDisplacementMaps.joint_centre``), loads at their nominal
-  points;
+- small-displacement model: the nominal pose; contact forces and rigid directions in the frame
+  of the joint's torsor (``SmallDisplacementMaps.joint_centre``: for a loop joint its child-side
+  clearance frame), loads at their nominal points;
 - exact model: the solved pose (``Equilibrium.body_placements``). A contact force acts on the
   child's contact point where it is, in the parent-side clearance frame's axes
   (:mod:`.exact`). A rigid direction is the gradient of the exact model's own condition with
@@ -46,7 +46,7 @@ from types import SimpleNamespace
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ClearancePinError
+from ..errors import ArgumentError, ClearancePinError
 from ..model.clearance import ALPHA, BETA, GAMMA
 from .load_terms import gather_body_loads
 from .poses import clearance_frames
@@ -63,9 +63,11 @@ class Reaction:
 
     Attributes:
         joint: joint name.
-        frame: ``"joint"``: the joint's clearance-frame axes (parent side, x = joint axis),
-            moment about the joint centre; ``"world"``: world axes, moment about the world
-            origin. Small-displacement model: at the nominal pose; exact: at the solved pose.
+        frame: ``"joint"``: the axes of the clearance frame the contact forces are given in
+            (x = joint axis), moment about its origin, the joint centre (small-displacement
+            model: the frame of the joint's torsor at the nominal pose, for a loop joint its
+            child side; exact: the parent side at the solved pose); ``"world"``: world axes,
+            moment about the world origin.
         force: resultant force [N], (3,).
         moment: resultant moment [N m] about ``point``, (3,).
         point: the point about which the moment is taken, in world coordinates [m], (3,).
@@ -118,11 +120,9 @@ class JointReactions:
     def reaction(self, joint: str, frame: str = "joint") -> Reaction:
         """The :class:`Reaction` of ``joint`` in ``frame`` (``"joint"`` or ``"world"``)."""
         if joint not in self.contact:
-            raise ClearancePinError(
-                f"reaction: unknown joint {joint!r}; the joints are: {', '.join(self.contact)}"
-            )
+            raise ArgumentError("joint", f"one of the joints {', '.join(self.contact)}", joint)
         if frame not in FRAMES:
-            raise ClearancePinError(f"reaction: frame must be 'joint' or 'world', got {frame!r}")
+            raise ArgumentError("frame", "'joint' or 'world'", frame)
         parts = [self.contact[joint], self.rigid[joint], self.drive[joint]]
         point = np.zeros(3)
         if frame == "joint":
@@ -152,10 +152,16 @@ def joint_reactions(equilibrium) -> JointReactions:
     bodies = model.njoints
 
     loads = _body_wrenches(mechanism, equilibrium.loads, placements, nominal.oMi, exact)
+    # the frame of the contact forces and of ``frame="joint"``: exact, the parent side at the
+    # solved pose; linear, the frame of the joint's torsor (SmallDisplacementMaps.joint_centre),
+    # which is the child side at the nominal pose (a loop joint's journal, block or ball)
+    joint_frames = {
+        name: frames[name].parent if exact else frames[name].child for name in mechanism.joints
+    }
     contact = {name: np.zeros(6) for name in mechanism.joints}
     for c in equilibrium.contacts:
         local = pin.Force(c.force, np.cross(c.position, c.force))
-        contact[c.joint] += frames[c.joint].parent.act(local).vector
+        contact[c.joint] += joint_frames[c.joint].act(local).vector
 
     columns, owners = [], []  # generator wrenches at the world origin, (joint, part) of each
     for name, joint in mechanism.joints.items():
@@ -205,7 +211,6 @@ def joint_reactions(equilibrium) -> JointReactions:
     drive = {name: np.zeros(6) for name in mechanism.joints}
     for column, (name, part), value in zip(columns, owners, solution):
         (rigid if part == "rigid" else drive)[name] += value * column
-    joint_frames = {name: frames[name].parent for name in mechanism.joints}
     return JointReactions(contact, rigid, drive, joint_frames, float(residual))
 
 
@@ -256,7 +261,7 @@ def _tree_generators(joint, frames, exact: bool):
     drive = np.array(drive).reshape(-1, 6).T
     rigid = null_space(np.hstack([basis, drive]).T)
     if not exact:
-        return [("rigid", rigid, frames.parent), ("drive", drive, frames.parent)]
+        return [("rigid", rigid, frames.child), ("drive", drive, frames.child)]
     dual = pin.Jlog6(frames.relative).T
     return [("rigid", dual @ rigid, frames.child), ("drive", dual @ drive, frames.child)]
 
@@ -269,7 +274,7 @@ def _loop_generators(loop, frames, exact: bool):
     if not exact:
         columns += [np.eye(6)[c] for c in rigid]
         columns += [row for p in fixed_points for row in p.linear_rows()]
-        return [("rigid", np.array(columns).reshape(-1, 6).T, frames.parent)]
+        return [("rigid", np.array(columns).reshape(-1, 6).T, frames.child)]
     rotation = frames.relative.rotation
     rotations = {c for c in rigid if c >= ALPHA}
     for c in rigid:
