@@ -23,13 +23,13 @@ import casadi as ca
 import numpy as np
 import pinocchio as pin
 
-from ..errors import SolverError, UnsupportedError
+from ..errors import SolverError, UnboundedLoadError, UnsupportedError
 from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
 from .kkt import ACCEPT_KKT
 from .reactions import frames_at
-from .result import Contact, Equilibrium
+from .result import STATICS_TOLERANCE, Contact, Equilibrium
 from .small_displacement import null_space, tree_joint_basis
 
 
@@ -124,6 +124,7 @@ class ExactProblem:
         self.shapes = [point.shape for _, point in contacts]
         self.contacts = contacts
         self.n_equality = len(kept) + gauge_count
+        self.gauge_count = gauge_count
         parameters = ca.vertcat(
             q,
             scale,
@@ -219,6 +220,11 @@ class ExactProblem:
         gauge = linear_problem.free_motions / scale[:, None]
         if gauge.size:
             gauge = gauge / np.linalg.norm(gauge, axis=0)
+            # one row per coordinate where the free motions are coordinates (a spin, a slide), so
+            # that each can be released alone (solve_exact_model)
+            support = np.flatnonzero(np.linalg.norm(gauge, axis=1) > 1e-12)
+            if support.size == gauge.shape[1]:
+                gauge = np.eye(gauge.shape[0])[:, support]
         return np.concatenate(
             [
                 configuration.q,
@@ -315,12 +321,43 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     equilibrium = _assemble(
         mechanism, exact, problem, configuration, z, lam, parts, sigma, stats, polished is not None
     )
+    if equilibrium.residuals["held_by_gauge"] > STATICS_TOLERANCE:
+        # at the solved pose the load works on a motion the linear answer left free (the spin of
+        # a shaft whose axis the play tilted): let that motion settle too, if it does nearby
+        settled = _settle_free_motions(exact, problem, z, lam, parts, params)
+        if settled is not None:
+            z, lam, parts = settled
+            polished = settled
+            stats = {"return_status": f"{stats['return_status']}, free motions settled"}
+            equilibrium = _assemble(
+                mechanism, exact, problem, configuration, z, lam, parts, sigma, stats, True
+            )
     equilibrium.polished = polished is not None
     equilibrium.build_time = exact.build_time if built_now else 0.0
     equilibrium.solve_time = time.perf_counter() - solve_started
     equilibrium.linear = linear
     equilibrium.loads = tuple(loads)  # for the joint reactions
     equilibrium.difference = _difference(equilibrium, linear)
+    held = equilibrium.residuals["held_by_gauge"]
+    if held > STATICS_TOLERANCE:
+        rotation = max(
+            (float(np.linalg.norm(t[3:])) for t in equilibrium.torsors.values()), default=0.0
+        )
+        if held > HELD_SHARE * max(rotation, 1e-9):
+            raise UnboundedLoadError(
+                [
+                    f"{d}, which the load works on at the exact model's solved pose (not in the "
+                    "linear model) without settling nearby"
+                    for d in problem.free_descriptions
+                ],
+                held,
+            )
+        equilibrium.note = (
+            f"exact: {held:.2g} of the load works, at the solved pose, along the motions the "
+            "linear model leaves free (a torque on a part whose free spin the play has tilted) "
+            "and they do not settle nearby; they are held where the linear answer puts them, as a "
+            "drive or the least friction would (reported as the reactions' 'held' part)"
+        )
     if not equilibrium.ok:
         raise SolverError(
             "the exact solve did not reach a verified optimum",
@@ -359,12 +396,21 @@ def _linear_start(
 
 
 def polish_exact(
-    exact: ExactProblem, z, lam, params, at_upper=None, at_lower=None, iterations: int = 12
+    exact: ExactProblem,
+    z,
+    lam,
+    params,
+    at_upper=None,
+    at_lower=None,
+    iterations: int = 12,
+    released=None,
 ):
     r"""Active-set Newton on the exact KKT system from a nearby point; None unless verified.
 
     Active: the equalities, and the contact constraints ``at_upper`` / ``at_lower`` (default:
-    those within 1e-6 of their bound or carrying a multiplier, from IPOPT's answer).
+    those within 1e-6 of their bound or carrying a multiplier, from IPOPT's answer). The gauge
+    rows (the last ``exact.gauge_count`` equalities) marked in ``released`` (bool, (gauges,)) are
+    left out: those motions nothing blocks settle where the load holds them at the solved pose.
     Solves :math:`\nabla f + J_A^T \lambda_A = 0`, :math:`g_A = b_A` with the exact
     Lagrangian Hessian, then accepts only if every contact multiplier pushes (>= 0 in the sense of
     its bound), every other contact is feasible, and the residual is at round-off.
@@ -380,7 +426,13 @@ def polish_exact(
         )
     if not (np.any(at_upper) or np.any(at_lower)):
         return None
-    active = np.concatenate([np.flatnonzero(at_upper | at_lower), np.arange(n_in, lower.size)])
+    equalities = np.arange(n_in, lower.size)
+    if released is not None:
+        gauge_rows = equalities[equalities.size - exact.gauge_count :]
+        lam = lam.copy()
+        lam[gauge_rows[released]] = 0.0
+        equalities = np.setdiff1d(equalities, gauge_rows[released])
+    active = np.concatenate([np.flatnonzero(at_upper | at_lower), equalities])
     target = np.where(at_lower, lower[:n_in], upper[:n_in])
     targets = np.concatenate([target, np.zeros(lower.size - n_in)])[active]
     z, lam = z.copy(), lam.copy()
@@ -420,6 +472,60 @@ def polish_exact(
         g[:n_in] >= lower[:n_in] - ACCEPT_KKT
     )
     return (z, lam, parts) if (feasible and pushes) else None
+
+
+NEARBY_ROTATION = 0.1  # [rad] a motion that settles further than this is no settling in the play
+# a share of the load along a free motion at the solved pose may be held at the gauge when it is of
+# second order: at most this many times the largest joint rotation of the answer [per rad]
+HELD_SHARE = 10.0
+
+
+def _settle_free_motions(exact: ExactProblem, problem, z, lam, parts: ExactParts, params):
+    """Release the gauge rows the load pulls on at the solved pose (all of them, else each alone,
+    most pulled first) and keep the first answer that settles nearby (:func:`_settles_nearby`);
+    None when none does."""
+    pull = np.abs(lam[lam.size - exact.gauge_count :])
+    pulled = pull > STATICS_TOLERANCE * max(float(np.linalg.norm(parts.gradient)), 1e-300)
+    trials = [pulled]
+    if pulled.sum() > 1:
+        for row in np.argsort(-pull)[: int(pulled.sum())]:
+            trials.append(np.arange(pull.size) == row)
+    for released in trials:
+        answer = polish_exact(exact, z, lam, params, released=released)
+        if answer is not None and _settles_nearby(exact, problem, *answer):
+            return answer
+    return None
+
+
+def _settles_nearby(exact: ExactProblem, problem, z, lam, parts: ExactParts) -> bool:
+    r"""The released answer is a stable equilibrium near the nominal pose: the Hessian of the
+    Lagrangian is positive semi-definite on the motions that keep the active constraints
+    (:math:`N^T \nabla^2 L\, N \succeq 0`, to 1e-9 of its size), no joint turns by more than
+    :data:`NEARBY_ROTATION` and none slides by more than ten times the largest scale of the
+    unknowns (a dead couple along a tilted free spin turns the part a quarter turn: that is no
+    equilibrium in the play)."""
+    n_in = len(exact.shapes)
+    gauge_rows = np.arange(exact.lower.size - exact.gauge_count, exact.lower.size)
+    kept_gauges = gauge_rows[lam[gauge_rows] != 0.0]
+    rows = np.concatenate(
+        [
+            np.flatnonzero(lam[:n_in] != 0.0),
+            np.arange(n_in, exact.lower.size - exact.gauge_count),
+            kept_gauges,
+        ]
+    )
+    keep = null_space(parts.jacobian[rows]) if rows.size else np.eye(z.size)
+    if keep.shape[1]:
+        reduced = keep.T @ parts.hessian @ keep
+        size = max(1.0, float(np.abs(parts.hessian).max()))
+        if np.linalg.eigvalsh(0.5 * (reduced + reduced.T)).min() < -1e-9 * size:
+            return False
+    relative = parts.poses[len(parts.poses) - len(exact.mechanism.joints) :]
+    reach = 10.0 * float(problem.scale.max(initial=0.0))
+    return all(
+        np.linalg.norm(pin.log3(M[:, :3])) <= NEARBY_ROTATION and np.linalg.norm(M[:, 3]) <= reach
+        for M in relative
+    )
 
 
 def _coordinates(linear: Equilibrium, joint) -> np.ndarray:
@@ -492,16 +598,27 @@ def _assemble(
         )
     scaled_gradient, jacobian, energy = parts.gradient, parts.jacobian, parts.energy
     inequality_jacobian = jacobian[:n_inequality]
-    equality_jacobian = jacobian[n_inequality:]
+    # the loop joints' rigid conditions hold loads; the gauge rows (the last ones) only pick a
+    # point along the motions nothing blocks, so a load they would hold is an imbalance
+    gauges = problem.free_motions.shape[1]
+    loop_jacobian = jacobian[n_inequality : jacobian.shape[0] - gauges]
     residual = scaled_gradient + inequality_jacobian.T @ lam[:n_inequality]
-    if equality_jacobian.size:
-        nu = np.linalg.lstsq(equality_jacobian.T, -residual, rcond=None)[0]
-        residual = residual + equality_jacobian.T @ nu
+    if loop_jacobian.size:
+        nu = np.linalg.lstsq(loop_jacobian.T, -residual, rcond=None)[0]
+        residual = residual + loop_jacobian.T @ nu
+    held = residual
+    if gauges:
+        gauge_jacobian = jacobian[jacobian.shape[0] - gauges :]
+        both = np.vstack([loop_jacobian, gauge_jacobian])
+        held = residual + both.T @ np.linalg.lstsq(both.T, -residual, rcond=None)[0]
     reference = float(np.linalg.norm(scaled_gradient)) or 1.0
     violation = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
     residuals = {
-        "stationarity": float(np.max(np.abs(residual), initial=0.0)),
-        "statics": float(np.linalg.norm(residual) / reference),
+        "stationarity": float(np.max(np.abs(held), initial=0.0)),
+        "statics": float(np.linalg.norm(held) / reference),
+        # share of the load only the gauge holds: at the solved pose it works along a motion
+        # nothing blocks (a free spin axis the play has tilted)
+        "held_by_gauge": float(np.linalg.norm(residual - held) / reference),
         "dual_infeasibility": float(
             max(
                 0.0,

@@ -6,7 +6,11 @@ A joint's reaction :math:`W_j = (f, m)` [N, N m] is the sum of three parts:
 - *rigid*: the reactions of the components the joint does not let move (rigid components, contact
   points without play), :math:`G_j \mu_j`;
 - *drive*: for a driven joint, the drive torque (or force) that locks its own motion,
-  :math:`D_j \tau_j`.
+  :math:`D_j \tau_j`;
+- *held*: exact model only, when the load works at the solved pose along a motion the linear model
+  leaves free and that motion does not settle nearby (``residuals["held_by_gauge"]``): what holds
+  the joint's own free motions where the linear answer put them, as a drive or the least friction
+  would; zero otherwise.
 
 The solver eliminates rigid and locked components (null-space reduction), so their multipliers
 are recovered afterwards from the statics of every moving body b (world axes, moments about b's
@@ -53,6 +57,7 @@ from .poses import clearance_frames
 from .small_displacement import null_space, tree_joint_basis
 
 FRAMES = ("joint", "world")
+PARTS = ("rigid", "drive", "held")  # the parts recovered from the statics
 
 
 @dataclass(frozen=True)
@@ -76,6 +81,8 @@ class Reaction:
         rigid: the part carried by its rigid directions (rigid components, contact points
             without play), (6,).
         drive: the drive torque (or force) of a driven joint, (6,); zero otherwise.
+        held: exact model, the part holding the joint's free motions (module docstring), (6,);
+            zero otherwise.
         residual: relative residual of the per-body statics from which the rigid and drive parts
             were recovered (whole mechanism; round-off for a balanced answer), see
             :mod:`clearance_pin.equilibrium.reactions`.
@@ -89,6 +96,7 @@ class Reaction:
     contact: np.ndarray
     rigid: np.ndarray
     drive: np.ndarray
+    held: np.ndarray
     residual: float
 
     @property
@@ -106,7 +114,8 @@ class JointReactions:
     """Every joint's reaction parts as wrenches at the world origin, world axes (6,) each.
 
     Attributes:
-        contact, rigid, drive: joint name -> (force [N], moment about the origin [N m]) (6,).
+        contact, rigid, drive, held: joint name -> (force [N], moment about the origin [N m])
+            (6,).
         joint_frames: joint name -> world placement (pin.SE3) of the frame of ``frame="joint"``.
         residual: relative residual of the per-body least squares (see the module docstring).
     """
@@ -114,6 +123,7 @@ class JointReactions:
     contact: dict
     rigid: dict
     drive: dict
+    held: dict
     joint_frames: dict
     residual: float
 
@@ -123,16 +133,14 @@ class JointReactions:
             raise ArgumentError("joint", f"one of the joints {', '.join(self.contact)}", joint)
         if frame not in FRAMES:
             raise ArgumentError("frame", "'joint' or 'world'", frame)
-        parts = [self.contact[joint], self.rigid[joint], self.drive[joint]]
+        parts = [self.contact[joint], self.rigid[joint], self.drive[joint], self.held[joint]]
         point = np.zeros(3)
         if frame == "joint":
             placement = self.joint_frames[joint]
             parts = [placement.actInv(pin.Force(part)).vector for part in parts]
             point = placement.translation.copy()
-        total = parts[0] + parts[1] + parts[2]
-        return Reaction(
-            joint, frame, total[:3], total[3:], point, parts[0], parts[1], parts[2], self.residual
-        )
+        total = parts[0] + parts[1] + parts[2] + parts[3]
+        return Reaction(joint, frame, total[:3], total[3:], point, *parts, self.residual)
 
 
 def joint_reactions(equilibrium) -> JointReactions:
@@ -164,8 +172,9 @@ def joint_reactions(equilibrium) -> JointReactions:
         contact[c.joint] += joint_frames[c.joint].act(local).vector
 
     columns, owners = [], []  # generator wrenches at the world origin, (joint, part) of each
+    held = exact and equilibrium.residuals.get("held_by_gauge", 0.0) > 0.0
     for name, joint in mechanism.joints.items():
-        for part, local, placement in _generators(joint, frames[name], exact):
+        for part, local, placement in _generators(joint, frames[name], exact, held):
             for column in local.T:
                 columns.append(placement.act(pin.Force(column)).vector)
                 owners.append((name, part))
@@ -207,11 +216,12 @@ def joint_reactions(equilibrium) -> JointReactions:
     largest = float(np.linalg.norm(imbalance, axis=1).max(initial=0.0))
     residual = largest / reference if reference > 0.0 else largest
 
-    rigid = {name: np.zeros(6) for name in mechanism.joints}
-    drive = {name: np.zeros(6) for name in mechanism.joints}
+    parts = {part: {name: np.zeros(6) for name in mechanism.joints} for part in PARTS}
     for column, (name, part), value in zip(columns, owners, solution):
-        (rigid if part == "rigid" else drive)[name] += value * column
-    return JointReactions(contact, rigid, drive, joint_frames, float(residual))
+        parts[part][name] += value * column
+    return JointReactions(
+        contact, parts["rigid"], parts["drive"], parts["held"], joint_frames, float(residual)
+    )
 
 
 def frames_at(mechanism, configuration, placements) -> dict:
@@ -243,15 +253,15 @@ def _body_wrenches(mechanism, loads, placements, nominal_oMi, exact: bool) -> di
     return wrenches
 
 
-def _generators(joint, frames, exact: bool):
+def _generators(joint, frames, exact: bool, held: bool = False):
     """(part, local wrenches (6, k), placement of the frame they are written in) of a joint's
-    rigid directions and drive (module docstring)."""
+    rigid directions and drive, and with ``held`` of its own free motions (module docstring)."""
     if hasattr(joint, "joint_id"):
-        return _tree_generators(joint, frames, exact)
+        return _tree_generators(joint, frames, exact, held)
     return _loop_generators(joint, frames, exact)
 
 
-def _tree_generators(joint, frames, exact: bool):
+def _tree_generators(joint, frames, exact: bool, held: bool = False):
     basis = tree_joint_basis(joint)
     drive = []
     for component in joint.locked_components:
@@ -263,7 +273,11 @@ def _tree_generators(joint, frames, exact: bool):
     if not exact:
         return [("rigid", rigid, frames.child), ("drive", drive, frames.child)]
     dual = pin.Jlog6(frames.relative).T
-    return [("rigid", dual @ rigid, frames.child), ("drive", dual @ drive, frames.child)]
+    generators = [("rigid", dual @ rigid, frames.child), ("drive", dual @ drive, frames.child)]
+    free = [c for c in joint.clearance.free_components if c not in joint.locked_components]
+    if held and free:
+        generators.append(("held", dual @ np.eye(6)[:, free], frames.child))
+    return generators
 
 
 def _loop_generators(loop, frames, exact: bool):
