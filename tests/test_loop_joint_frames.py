@@ -188,3 +188,17 @@ def test_an_offset_in_a_rigid_direction_is_refused():
     assert mount in text
     with pytest.raises(ModelError, match=r"pin_B.*1\.000e-05 m in a rigid direction \(u\)"):
         loads(text.replace(mount, '<origin xyz="0.12 0 1e-05"/></joint>'), source="four_bar")
+
+
+def test_the_eccentricity_is_reported():
+    """The misaligned housing's offset is reported with the answer (in its own frame, in the
+    table and the JSON): 20 um across the middle bearing's axis, no tilt; an aligned mechanism
+    reports none."""
+    equilibrium = three_bearing_shaft(20e-6).solve()
+    offset, tilt = equilibrium.eccentricities["B2"]
+    assert offset == pytest.approx([0.0, -20e-6, 0.0], abs=1e-15)  # journal below the housing
+    assert np.abs(tilt).max() == 0.0
+    assert set(equilibrium.eccentricities) == {"B2"}
+    assert "eccentric (misaligned housing) B2" in equilibrium.table()
+    assert equilibrium.to_dict()["eccentricities"]["B2"]["translation"][1] == pytest.approx(-20e-6)
+    assert three_bearing_shaft(0.0).solve().eccentricities == {}

@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import pinocchio as pin
 
 from ..errors import ClearancePinError
 
@@ -212,6 +213,21 @@ class Equilibrium:
         return reactions.reaction(joint, frame)
 
     @property
+    def eccentricities(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Loop joints with a nominal eccentricity (a misaligned housing inside its play): name ->
+        (translation (3,) [m], rotation vector (3,) [rad]) of the child's clearance frame in the
+        parent's at the nominal configuration, parent clearance-frame axes
+        (:meth:`~clearance_pin.mechanism.Configuration.eccentricity`); aligned joints are left out.
+        The joint's torsor is its motion from that eccentric place."""
+        found = {}
+        for loop in getattr(self.mechanism, "loop_joints", ()):
+            offset = self.configuration.eccentricity(loop)
+            translation, rotation = offset.translation.copy(), pin.log3(offset.rotation)
+            if np.any(translation) or np.any(rotation):
+                found[loop.name] = (translation, rotation)
+        return found
+
+    @property
     def active_contacts(self) -> tuple[Contact, ...]:
         """The contacts that carry load."""
         return tuple(c for c in self.contacts if c.active)
@@ -258,6 +274,10 @@ class Equilibrium:
             },
             "difference_exact_linear": _difference_dict(self.difference, length),
             "difference_bound": _difference_dict(self.difference_bound, length),
+            "eccentricities": {
+                name: {"translation": (t * length).tolist(), "rotation_rad": r.tolist()}
+                for name, (t, r) in self.eccentricities.items()
+            },
             "note": self.note,
         }
 
@@ -282,6 +302,13 @@ class Equilibrium:
                 f"{c.label:<22}{c.gap * length:>14.4f}{c.force_magnitude:>12.5g}  "
                 f"{np.array2string(direction, precision=3, suppress_small=True)}"
                 f"{'  <- contact' if c.active else ''}"
+            )
+        for name, (t, r) in self.eccentricities.items():
+            lines.append(
+                f"eccentric (misaligned housing) {name}: offset "
+                f"{np.array2string(t * length, precision=4, suppress_small=True)} {unit}, tilt "
+                f"{np.array2string(r * 1e6, precision=3, suppress_small=True)} urad; "
+                "its torsor is measured from there"
             )
         if self.free_motions:
             lines.append("free (indeterminate, set to zero): " + " | ".join(self.free_motions))
