@@ -157,3 +157,14 @@ def test_bundled_model_outputs_in_both_formulations():
     mechanism = cp.load(ROOT / "models" / "four_bar.urdf")
     exact = mechanism.solve(exact=True)
     assert set(exact.outputs) == set(exact.linear.outputs) == set(exact.difference["outputs"])
+
+
+def test_batched_answers_report_the_loaded_points_too():
+    """An answer of solve_many (assembled from the batched Newton) reports the same outputs as a
+    single solve: its loaded points as well as the leaf links."""
+    mechanism = cp.load(ROOT / "models" / "younes_sphere_cylinder.urdf")
+    single = mechanism.solve()
+    batch = mechanism.solve_many([list(mechanism.loads)] * 3)
+    assert list(batch[1].outputs) == list(single.outputs)
+    for name, (t, r) in single.outputs.items():
+        assert np.allclose(batch[1].outputs[name][0], t, rtol=0, atol=1e-15)

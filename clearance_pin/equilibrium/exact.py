@@ -661,7 +661,7 @@ def _difference(exact: Equilibrium, linear: Equilibrium) -> dict:
     largest difference of a joint torsor component (see ``Equilibrium.difference``)."""
     from .outputs import output_displacements, resolve_outputs
 
-    points = linear.output_points or resolve_outputs(linear.mechanism)
+    points = linear.output_points or resolve_outputs(linear.mechanism, linear.loads or ())
     exact.output_points = points
     moved_exact = output_displacements(exact, points)
     moved_linear = output_displacements(linear, points)

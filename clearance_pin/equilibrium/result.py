@@ -187,7 +187,7 @@ class Equilibrium:
         finite displacement, rotation as log3 (:mod:`.outputs`)."""
         from .outputs import output_displacements, resolve_outputs
 
-        points = self.output_points or resolve_outputs(self.mechanism)
+        points = self.output_points or resolve_outputs(self.mechanism, self.loads or ())
         return output_displacements(self, points)
 
     def reaction(self, joint: str, frame: str = "joint"):
