@@ -1,14 +1,18 @@
-"""``clearance-pin tolerance MODEL``: tolerance propagation over a cycle of the driven joint [F].
+"""``clearance-pin tolerance MODEL``: tolerance propagation over a sweep of the driven joint [F].
 
     clearance-pin tolerance models/slider_crank.urdf --clockwise \\
         --output x4=slider.x --output theta3=rod.rz --samples 100000 --exact \\
         --budget x4 --plot bands.png --json bands.json
+    clearance-pin tolerance tests/data/stewart_6ups.urdf --joint leg1 --start 210 --stop 230 \\
+        --output platform.x --output platform.z
 
 Prints, at every position of the sweep, the nominal outputs, their sensitivities to the
 ``<dimension>`` elements of the model, the worst-case and RSS half bands (P. Flores 2011), the
 exact Monte Carlo checks (uniform: largest deviation; normal: ``3 s``) and, with ``--exact``, the
-exact worst case; then the maxima of the bands over the continuous cycle. Units: um and urad in
-the table, SI (m, rad) in the JSON.
+exact worst case; then the maxima of the bands over the continuous range of the sweep. A revolute
+joint is swept by an angle ``phi`` (``--start``/``--stop``/``--offset`` in degrees, one turn by
+default), a prismatic one by a travel ``s`` (in millimetres, and ``--start``/``--stop`` are
+required: a slider has no cycle). Units: um and urad in the table, SI (m, rad) in the JSON.
 """
 
 from __future__ import annotations
@@ -22,9 +26,16 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ClearancePinError
+from ..errors import ArgumentError, ClearancePinError
 from .sensitivity import Output, determined_outputs, parse_output, sensitivities
-from .sweep import clearance_budget, cycle_maximum, plot_sweep, sweep
+from .sweep import (
+    clearance_budget,
+    cycle_maximum,
+    driven_joint,
+    joint_unit,
+    plot_sweep,
+    sweep,
+)
 
 __all__ = ["add_arguments", "default_outputs", "run"]
 
@@ -42,15 +53,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--joint", help="driven joint to sweep (default: the only driven joint)")
     parser.add_argument("--positions", type=int, default=25, help="positions (default 25)")
-    parser.add_argument("--start", type=float, default=0.0, help="first phi [deg] (default 0)")
-    parser.add_argument("--stop", type=float, default=360.0, help="last phi [deg] (default 360)")
     parser.add_argument(
-        "--offset", type=float, default=0.0, help="driven joint value at phi = 0 [deg] (default 0)"
+        "--start",
+        type=float,
+        help="first phi [deg] of a revolute joint (default 0); first s [mm] of a prismatic "
+        "joint (required)",
+    )
+    parser.add_argument(
+        "--stop",
+        type=float,
+        help="last phi [deg] of a revolute joint (default 360); last s [mm] of a prismatic "
+        "joint (required: no cycle)",
+    )
+    parser.add_argument(
+        "--offset",
+        type=float,
+        default=0.0,
+        help="driven joint value at phi = 0 [deg], or at s = 0 [mm] for a prismatic joint "
+        "(default 0: s is the joint value); the range must stay within the URDF limits",
     )
     parser.add_argument(
         "--clockwise",
         action="store_true",
-        help="q = offset - phi (the Flores convention theta2 = -phi)",
+        help="q = offset - phi (the Flores convention theta2 = -phi; prismatic: q = offset - s)",
     )
     parser.add_argument(
         "--samples",
@@ -116,15 +141,16 @@ def run(args: argparse.Namespace) -> int:
         if args.output
         else default_outputs(mechanism)
     )
+    start, stop, offset = _range_si(mechanism, args)
     result = sweep(
         mechanism,
         outputs,
         args.joint,
         args.positions,
-        math.radians(args.start),
-        math.radians(args.stop),
+        start,
+        stop,
         args.clockwise,
-        math.radians(args.offset),
+        offset,
         samples=args.samples,
         seed=args.seed,
         exact=args.exact,
@@ -157,11 +183,28 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _range_si(mechanism, args: argparse.Namespace) -> tuple[float, float, float]:
+    """``--start``, ``--stop``, ``--offset`` in SI [rad or m], read in the swept joint's
+    display unit: deg for a revolute joint (0 to 360 by default), mm for a prismatic one."""
+    joint_id = driven_joint(mechanism, args.joint)
+    if joint_unit(mechanism, joint_id) == "rad":
+        start = 0.0 if args.start is None else args.start
+        stop = 360.0 if args.stop is None else args.stop
+        return math.radians(start), math.radians(stop), math.radians(args.offset)
+    if args.start is None or args.stop is None:
+        raise ArgumentError(
+            "--start, --stop",
+            f"the travel s [mm] of prismatic joint {mechanism.model.names[joint_id]!r} "
+            "(a prismatic joint has no cycle: give both)",
+            (args.start, args.stop),
+        )
+    return args.start / 1e3, args.stop / 1e3, args.offset / 1e3  # correctly rounded m
+
+
 def _table(mechanism, result, maxima: dict, budget) -> str:
     lines = [
         f"{mechanism.name}: {len(result.dimensions)} dimensions, sweep of "
-        f"{result.joint} (q = {result.offset:+.4g} {'-' if result.sign < 0 else '+'} phi), "
-        f"{len(result.phi)} positions, {result.seconds:.2f} s"
+        f"{result.joint} ({_law(result)}), {len(result.phi)} positions, {result.seconds:.2f} s"
     ]
     for d in result.dimensions:
         factor, unit = _TABLE_SCALE[d.unit]
@@ -179,7 +222,8 @@ def _table(mechanism, result, maxima: dict, budget) -> str:
         lines.append(
             f"{output.name} ({output.kind} of {output.target}); bands are half widths [{unit}]"
         )
-        head = f"{'phi[deg]':>9} {output.name + '[' + value_unit + ']':>12}"
+        head = f"{result.symbol + '[' + result.display_unit + ']':>9}"
+        head += f" {output.name + '[' + value_unit + ']':>12}"
         head += "".join(f" {'S_' + d.name:>10}" for d in result.dimensions)
         head += f" {'worst':>9} {'rss':>9}"
         if result.uniform:
@@ -189,8 +233,9 @@ def _table(mechanism, result, maxima: dict, budget) -> str:
         if budget is not None and budget.output == output.name:
             head += f" {'clear.':>9} {'total':>9}"
         lines.append(head)
-        for k, phi in enumerate(result.phi_deg):
-            row = f"{phi:9.2f} {value_factor * result.values[k, i]:12.6f}"
+        for k, phi in enumerate(result.display()):
+            row = f"{phi:9.2f}" if result.unit == "rad" else f"{phi:9.3f}"
+            row += f" {value_factor * result.values[k, i]:12.6f}"
             row += "".join(f" {s:10.5f}" for s in result.matrix[k, i])
             row += f" {factor * result.worst[k, i]:9.3f} {factor * result.rss[k, i]:9.3f}"
             if result.uniform:
@@ -210,8 +255,8 @@ def _table(mechanism, result, maxima: dict, budget) -> str:
             if (output.name, band) in maxima:
                 value, where = maxima[(output.name, band)]
                 lines.append(
-                    f"  max {band} band over the cycle: {factor * value:.4f} {unit} at "
-                    f"phi = {math.degrees(where):.4f} deg"
+                    f"  max {band} band over {_span(result)}: {factor * value:.4f} {unit} at "
+                    f"{result.symbol} = {result.display(where):.4f} {result.display_unit}"
                 )
     if result.uniform:
         lines.append("")
@@ -221,6 +266,23 @@ def _table(mechanism, result, maxima: dict, budget) -> str:
             "= T/6: 3 s against the RSS band)"
         )
     return "\n".join(lines)
+
+
+def _law(result) -> str:
+    """The driven joint's value along the sweep, e.g. ``q = +0 - phi`` or
+    ``q = +0 mm + s`` (a prismatic joint)."""
+    sign = "-" if result.sign < 0 else "+"
+    if result.unit == "rad":
+        return f"q = {result.offset:+.4g} {sign} phi"
+    return f"q = {1e3 * result.offset:+.6g} mm {sign} s"
+
+
+def _span(result) -> str:
+    """Where the maxima are sought: ``the cycle`` (an angle) or ``s in [a, b] mm``."""
+    if result.unit == "rad":
+        return "the cycle"
+    low, high = sorted((result.display(result.phi[0]), result.display(result.phi[-1])))
+    return f"s in [{low:.6g}, {high:.6g}] mm"
 
 
 def _document(model: Path, result, maxima: dict, budget) -> dict:
@@ -248,18 +310,24 @@ def _document(model: Path, result, maxima: dict, budget) -> dict:
             if (output.name, band) in maxima:
                 value, where = maxima[(output.name, band)]
                 entry[f"{band}_max"] = value
-                entry[f"{band}_max_phi_deg"] = math.degrees(where)
+                if result.unit == "rad":
+                    entry[f"{band}_max_phi_deg"] = math.degrees(where)
+                else:
+                    entry[f"{band}_max_s_m"] = float(where)
         if budget is not None and budget.output == output.name:
             entry["clearance_deviation"] = budget.clearance.tolist()
             entry["total_worst"] = budget.total_worst.tolist()
             entry["total_rss"] = budget.total_rss.tolist()
         outputs[output.name] = entry
+    if result.unit == "rad":
+        motion = {"offset_rad": result.offset, "phi_deg": result.phi_deg.tolist()}
+    else:
+        motion = {"unit": "m", "offset_m": result.offset, "s_m": result.phi.tolist()}
     return {
         "model": str(model),
         "joint": result.joint,
         "sign": result.sign,
-        "offset_rad": result.offset,
-        "phi_deg": result.phi_deg.tolist(),
+        **motion,
         "dimensions": [
             {
                 "name": d.name,

@@ -1,4 +1,4 @@
-r"""Tolerance bands over a motion: a driven joint swept through a cycle [F].
+r"""Tolerance bands over a motion: a driven joint swept through a cycle or a stroke [F].
 
 P. Flores, "A methodology for quantifying the kinematic position errors due to manufacturing
 and assembly tolerances", Strojniski vestnik - J. Mech. Eng. (2011) [F], tabulates the
@@ -9,26 +9,35 @@ any mechanism: the driven joint takes the values
 
 (``s = -1`` for a clockwise crank: the convention of the Flores case, ``theta2 = -phi`` with
 ``phi`` from top dead centre), the loops are closed on the same assembly branch all along
-(steps of at most :data:`MAX_STEP` from the model's nominal configuration), and at every
+(steps of at most :func:`step_limit` from the model's nominal configuration), and at every
 position it gives the sensitivities (:mod:`.sensitivity`), the worst-case and RSS bands, and
 optionally exact Monte Carlo runs and the exact worst case (:mod:`.monte_carlo`).
 
-:func:`cycle_maximum` finds the largest band over the *continuous* cycle (a grid, then a
-golden-section refinement), :func:`clearance_budget` sets the clearance-induced deviation of the
-equilibrium engine (METHOD.md section 1) beside the tolerance bands, and :func:`plot_sweep`
-draws them (matplotlib, the ``plot`` extra).
+The motion parameter is in the swept joint's own unit (:func:`joint_unit`): an angle ``phi``
+[rad] of a revolute or continuous joint (one turn by default), a travel ``s`` [m] of a prismatic
+one (a Stewart platform's leg, a slider driven instead of a crank), whose range must be given:
+a slider has no cycle. A range that takes the joint out of its URDF ``<limit>`` is refused.
+
+:func:`cycle_maximum` finds the largest band over the *continuous* range of a sweep (a grid,
+then a golden-section refinement), :func:`clearance_budget` sets the clearance-induced deviation
+of the equilibrium engine (docs/method.md section 2) beside the tolerance bands, and
+:func:`plot_sweep` draws them (matplotlib, the ``plot`` extra).
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 import time
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ClearancePinError
+from ..errors import ArgumentError, ClearancePinError
+from ..model.clearance import ALPHA, U
+from ..model.joints import MOTION_COMPONENT_BY_PIN_JOINT
+from ..model.plausibility import LIMIT_SLACK, limits_of
 from ..progress import Progress
 from .monte_carlo import BatchClosure, MonteCarloResult, WorstCase, exact_worst_case, monte_carlo
 from .sensitivity import Output, Sensitivities, parse_output, sensitivities
@@ -40,12 +49,19 @@ __all__ = [
     "closed_configuration",
     "cycle_maximum",
     "driven_joint",
+    "joint_unit",
     "plot_sweep",
+    "step_limit",
     "sweep",
 ]
 
-#: largest step of the driven joint between two loop closures [rad] (keeps the branch)
+#: largest step of a revolute driven joint between two loop closures [rad] (keeps the branch)
 MAX_STEP = math.radians(5.0)
+#: largest step of a prismatic driven joint between two loop closures, as a fraction of the
+#: mechanism's length scale [-]: the step of ``clearance_pin.kinematics.closure.follow_branch``
+PRISMATIC_STEP = 0.05
+#: name and display unit of the motion parameter, by the joint's unit
+_DISPLAY = {"rad": ("phi", "deg"), "m": ("s", "mm")}
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
@@ -55,8 +71,9 @@ class Sweep:
 
     Attributes:
         joint: the driven joint swept.
-        phi: the motion parameter at each position [rad], shape (n_pos,).
-        sign, offset: ``q_drive = offset + sign * phi`` [rad].
+        phi: the motion parameter at each position [rad, or m for a prismatic joint: ``s``],
+            shape (n_pos,).
+        sign, offset: ``q_drive = offset + sign * phi`` [rad or m].
         configurations: closed configurations, shape (n_pos, nq).
         outputs, dimensions: as in :class:`~.sensitivity.Sensitivities`.
         values: nominal outputs [m or rad], shape (n_pos, n_out).
@@ -65,6 +82,7 @@ class Sweep:
         uniform, normal: Monte Carlo results per position (empty without samples).
         exact: exact worst cases per position (empty unless asked).
         seconds: wall time of the sweep.
+        unit: the swept joint's unit, ``"rad"`` (revolute, continuous) or ``"m"`` (prismatic).
     """
 
     joint: str
@@ -82,11 +100,35 @@ class Sweep:
     normal: tuple[MonteCarloResult, ...] = ()
     exact: tuple[WorstCase, ...] = ()
     seconds: float = 0.0
+    unit: str = "rad"
 
     @property
     def phi_deg(self) -> np.ndarray:
-        """The motion parameter [deg]."""
+        """The motion parameter [deg] of a revolute joint's sweep."""
+        if self.unit != "rad":
+            raise ClearancePinError(
+                f"the sweep of prismatic joint {self.joint!r} is a travel in m, not an angle: "
+                "read phi [m] or display()"
+            )
         return np.degrees(self.phi)
+
+    @property
+    def symbol(self) -> str:
+        """Name of the motion parameter: ``"phi"`` (an angle) or ``"s"`` (a travel)."""
+        return _DISPLAY[self.unit][0]
+
+    @property
+    def display_unit(self) -> str:
+        """Unit of :meth:`display`: ``"deg"`` or ``"mm"``."""
+        return _DISPLAY[self.unit][1]
+
+    def display(self, value=None):
+        """A motion parameter value (default: every position's) in :attr:`display_unit`
+        [deg or mm], from [rad or m]."""
+        value = self.phi if value is None else value
+        if self.unit == "rad":
+            return np.degrees(value) if np.ndim(value) else math.degrees(float(value))
+        return 1e3 * np.asarray(value) if np.ndim(value) else 1e3 * float(value)
 
     def index(self, name: str) -> int:
         """Row of the output called ``name``."""
@@ -119,6 +161,33 @@ def driven_joint(mechanism, joint: str | None = None) -> int:
     return joint_id
 
 
+def joint_unit(mechanism, joint_id: int) -> str:
+    """Unit of a 1-DOF joint's value: ``"rad"`` (revolute, continuous) or ``"m"`` (prismatic).
+
+    Raises:
+        ClearancePinError: another kind of joint (it has no sweep).
+    """
+    model = mechanism.model
+    kind = model.joints[joint_id].shortname()
+    component = MOTION_COMPONENT_BY_PIN_JOINT.get(kind)
+    if component == ALPHA:
+        return "rad"
+    if component == U:
+        return "m"
+    raise ClearancePinError(
+        f"joint {model.names[joint_id]!r} ({kind}) is neither revolute nor prismatic; "
+        "only those joints are swept"
+    )
+
+
+def step_limit(mechanism, joint_id: int) -> float:
+    """Largest step of the joint between two loop closures [rad or m]: :data:`MAX_STEP` for a
+    revolute joint, :data:`PRISMATIC_STEP` of the mechanism's length scale for a prismatic one."""
+    if joint_unit(mechanism, joint_id) == "rad":
+        return MAX_STEP
+    return PRISMATIC_STEP * mechanism.length_scale()
+
+
 def _joint_value(model, q: np.ndarray, joint_id: int) -> float:
     joint = model.joints[joint_id]
     if joint.nq == 2:
@@ -139,11 +208,12 @@ def _set_joint(model, q: np.ndarray, joint_id: int, value: float) -> np.ndarray:
 def closed_configuration(
     mechanism, joint_id: int, value: float, q_from: np.ndarray, value_from: float | None = None
 ) -> np.ndarray:
-    """Close the loops with the joint at ``value``, walking from ``q_from`` (a closed
-    configuration) in steps of at most :data:`MAX_STEP`, so that the branch is kept."""
+    """Close the loops with the joint at ``value`` [rad or m], walking from ``q_from`` (a closed
+    configuration, the joint at ``value_from``, default read from it) in steps of at most
+    :func:`step_limit`, so that the branch is kept."""
     model = mechanism.model
     start = _joint_value(model, q_from, joint_id) if value_from is None else value_from
-    steps = max(1, math.ceil(abs(value - start) / MAX_STEP))
+    steps = max(1, math.ceil(abs(value - start) / step_limit(mechanism, joint_id)))
     q = q_from
     for k in range(1, steps + 1):
         q = mechanism.configure(
@@ -157,8 +227,8 @@ def sweep(
     outputs,
     joint: str | None = None,
     positions: int = 25,
-    start: float = 0.0,
-    stop: float = 2.0 * math.pi,
+    start: float | None = None,
+    stop: float | None = None,
     clockwise: bool = False,
     offset: float = 0.0,
     samples: int = 0,
@@ -166,16 +236,20 @@ def sweep(
     exact: bool = False,
     progress: bool | None = None,
 ) -> Sweep:
-    """Sensitivities and bands over a cycle of a driven joint [F].
+    """Sensitivities and bands over a cycle or a stroke of a driven joint [F].
+
+    The motion parameter ``phi`` is in the joint's unit: [rad] for a revolute or continuous
+    joint, [m] for a prismatic one (its travel ``s``).
 
     Args:
         mechanism: :class:`~clearance_pin.mechanism.Mechanism` with ``<dimension>`` elements.
         outputs: output specs (``"x4=slider.x"``) or :class:`~.sensitivity.Output` objects.
         joint: the joint to sweep (default: the only driven joint).
         positions: number of positions, ``phi`` from ``start`` to ``stop`` inclusive.
-        start, stop: range of ``phi`` [rad].
+        start, stop: range of ``phi`` [rad or m]; a revolute joint's default is one turn,
+            0 to 2 pi, a prismatic joint has none (it has no cycle).
         clockwise: ``q_drive = offset - phi`` (else ``offset + phi``).
-        offset: ``q_drive`` at ``phi = 0`` [rad].
+        offset: ``q_drive`` at ``phi = 0`` [rad or m].
         samples: Monte Carlo samples per position and distribution (0: none).
         seed: seed of the Monte Carlo runs (position k uses ``seed + k``).
         exact: also the exact worst case at every position.
@@ -183,15 +257,22 @@ def sweep(
 
     Returns:
         :class:`Sweep`.
+
+    Raises:
+        ArgumentError: ``positions < 1``, a range missing (prismatic joint) or not finite, or
+            one that takes the joint out of its URDF limits.
     """
     started = time.perf_counter()
     model = mechanism.model
-    if positions < 1:
-        raise ClearancePinError(f"positions must be >= 1, got {positions}")
+    if isinstance(positions, bool) or not isinstance(positions, numbers.Integral) or positions < 1:
+        raise ArgumentError("positions", "an integer >= 1", positions)
     joint_id = driven_joint(mechanism, joint)
+    unit = joint_unit(mechanism, joint_id)
+    start, stop = _sweep_range(model, joint_id, unit, start, stop, offset)
     outputs = tuple(o if isinstance(o, Output) else parse_output(model, o) for o in outputs)
     sign = -1.0 if clockwise else 1.0
     phi = np.linspace(start, stop, positions) if positions > 1 else np.array([start])
+    _check_limits(model, joint_id, unit, offset + sign * phi, (start, stop))
     q = mechanism.configure().q
     current = _joint_value(model, q, joint_id)
     bar = Progress(
@@ -201,8 +282,8 @@ def sweep(
     )
     rows: list[Sensitivities] = []
     uniform, normal, worst_cases, configurations = [], [], [], []
-    for k, angle in enumerate(phi):
-        target = offset + sign * angle
+    for k, parameter in enumerate(phi):
+        target = offset + sign * parameter
         q = closed_configuration(mechanism, joint_id, target, q, current)
         current = target
         configurations.append(q)
@@ -243,16 +324,56 @@ def sweep(
         tuple(normal),
         tuple(worst_cases),
         time.perf_counter() - started,
+        unit,
     )
 
 
-def _band_at(mechanism, result: Sweep, output: int, band: str, angle: float) -> float:
+def _sweep_range(model, joint_id: int, unit: str, start, stop, offset) -> tuple[float, float]:
+    """``(start, stop)`` [rad or m] of a sweep: a revolute joint's default turn, checked finite."""
+    if unit == "rad":
+        start = 0.0 if start is None else start
+        stop = 2.0 * math.pi if stop is None else stop
+    for argument, value in (("start", start), ("stop", stop)):
+        if value is None:
+            raise ArgumentError(
+                argument,
+                f"the {argument} of the travel of prismatic joint {model.names[joint_id]!r} [m] "
+                "(a prismatic joint has no cycle: give start and stop)",
+                value,
+            )
+    for argument, value in (("start", start), ("stop", stop), ("offset", offset)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise ArgumentError(argument, f"a number [{unit}]", value)
+        if not math.isfinite(value):
+            raise ArgumentError(argument, f"a finite number [{unit}]", value)
+    return start, stop
+
+
+def _check_limits(model, joint_id: int, unit: str, values: np.ndarray, span) -> None:
+    """Refuse joint values [rad or m] of a sweep outside the joint's URDF limits."""
+    limits = limits_of(model, joint_id)
+    if limits is None:
+        return
+    lowest, highest = float(np.min(values)), float(np.max(values))
+    if limits[0] - LIMIT_SLACK <= lowest and highest <= limits[1] + LIMIT_SLACK:
+        return
+    raise ArgumentError(
+        "start, stop",
+        f"a range keeping joint {model.names[joint_id]!r} within its URDF limits "
+        f"[{limits[0]:.6g}, {limits[1]:.6g}] {unit}",
+        tuple(float(v) for v in span),
+        f"the joint would reach [{lowest:.6g}, {highest:.6g}] {unit}",
+    )
+
+
+def _band_at(mechanism, result: Sweep, output: int, band: str, parameter: float) -> float:
+    """The band of one output with the motion parameter at ``parameter`` [rad or m]."""
     joint_id = driven_joint(mechanism, result.joint)
-    nearest = int(np.argmin(np.abs(result.phi - angle)))
+    nearest = int(np.argmin(np.abs(result.phi - parameter)))
     q = closed_configuration(
         mechanism,
         joint_id,
-        result.offset + result.sign * angle,
+        result.offset + result.sign * parameter,
         result.configurations[nearest],
         result.offset + result.sign * result.phi[nearest],
     )
@@ -271,7 +392,9 @@ def cycle_maximum(
 ) -> tuple[float, float]:
     """Largest band of an output over the continuous range of the sweep, and where.
 
-    A grid of ``grid`` positions over ``[phi_0, phi_end]``, then a golden-section search
+    Over ``[phi_0, phi_end]`` of the sweep and nothing else (one turn for the default sweep of a
+    revolute joint, the stroke given for a prismatic one): a grid of ``grid`` positions, then a
+    golden-section search
     in the two grid intervals around each grid maximum within ``1e-6`` of the best; ties
     (symmetric mechanisms) go to the smallest ``phi``.
 
@@ -281,12 +404,12 @@ def cycle_maximum(
         output: output name.
         band: ``"worst"`` or ``"rss"``.
         grid: grid size.
-        tol: golden-section tolerance on ``phi`` [rad].
+        tol: golden-section tolerance on ``phi`` [rad or m].
         fine: a prebuilt grid sweep of the same range and outputs (re-use it for several
             outputs and bands), else one is computed.
 
     Returns:
-        ``(maximum band [output units], phi [rad])``.
+        ``(maximum band [output units], phi [rad or m])``.
     """
     if band not in ("worst", "rss"):
         raise ClearancePinError(f"band must be 'worst' or 'rss', got {band!r}")
@@ -340,7 +463,7 @@ class Budget:
     """Clearance-induced deviation beside the tolerance bands, per position [m or rad].
 
     Attributes:
-        phi: positions [rad], shape (n_pos,).
+        phi: positions [rad or m, the sweep's unit], shape (n_pos,).
         output: the output name.
         clearance: deviation of the loaded mechanism in its clearances (equilibrium engine,
             signed), shape (n_pos,).
@@ -400,11 +523,12 @@ def clearance_budget(mechanism, result: Sweep, output: str, loads=None, gravity=
 def plot_sweep(
     result: Sweep, path, budget: Budget | None = None, scale: dict | None = None, title: str = ""
 ) -> None:
-    """Write a PNG of the bands over the cycle, with the Monte Carlo points and the budget.
+    """Write a PNG of the bands over the sweep, with the Monte Carlo points and the budget.
 
     One panel per output: the worst-case band (shaded), the RSS band (lines), the uniform Monte
     Carlo deviations (points) and the exact worst case (markers); with ``budget``, a last
-    panel with the clearance deviation and the total bands around it.
+    panel with the clearance deviation and the total bands around it. The abscissa is the
+    motion parameter, ``phi`` [deg] or ``s`` [mm] (a prismatic joint).
 
     Args:
         result: a :class:`Sweep`.
@@ -428,7 +552,7 @@ def plot_sweep(
     scale = scale or {"m": (1e6, "um"), "rad": (1e3, "mrad")}
     panels = len(result.outputs) + (budget is not None)
     fig, axes = plt.subplots(panels, 1, figsize=(10, 2.8 * panels), sharex=True, squeeze=False)
-    phi = result.phi_deg
+    phi = result.display()
     for i, output in enumerate(result.outputs):
         ax = axes[i, 0]
         factor, unit = scale[output.unit]
@@ -496,7 +620,7 @@ def plot_sweep(
         ax.set_ylabel(f"d{budget.output} total [{unit}]")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
-    axes[-1, 0].set_xlabel("phi [deg]")
+    axes[-1, 0].set_xlabel(f"{result.symbol} [{result.display_unit}]")
     if title:
         fig.suptitle(title)
     fig.tight_layout()
