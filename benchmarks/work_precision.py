@@ -238,14 +238,14 @@ def perturbed_loads(mechanism, count: int, relative: float, rng) -> list[tuple]:
     "Limitations".
     """
     from clearance_pin.equilibrium.load_terms import gather_body_loads, load_gradient
-    from clearance_pin.equilibrium.solve import linear_setup
+    from clearance_pin.equilibrium.prepared import linear_setup
 
     base = tuple(load for load in mechanism.loads if isinstance(load, (PointForce, Torque)))
     params, rebuild = _parameters(base)
     if not params.size:
         raise ValueError(f"{mechanism.name}: no force or torque to perturb (gravity only)")
     resolved = mechanism.resolve_loads(base)
-    _, maps, _, problem = linear_setup(mechanism, resolved, None)
+    configuration, maps, _, problem = linear_setup(mechanism, resolved, None)
     free = problem.free_motions
     scales = np.repeat([np.linalg.norm(params[3 * k : 3 * k + 3]) for k in range(len(base))], 3)
     if free.size:
@@ -254,7 +254,7 @@ def perturbed_loads(mechanism, count: int, relative: float, rng) -> list[tuple]:
             unit = np.zeros(params.size)
             unit[i] = 1.0
             body_loads = gather_body_loads(
-                mechanism.model, mechanism.data, rebuild(unit), mechanism.link_frames
+                mechanism.model, configuration, rebuild(unit), mechanism.link_frames
             )
             columns.append(load_gradient(body_loads, maps.body_twist))
         work_on_free = free.T @ np.array(columns).T * scales  # (k, p)

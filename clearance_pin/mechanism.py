@@ -6,12 +6,15 @@ clearance or nominal configuration of the same structure.
 
 from __future__ import annotations
 
-import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
 
+from .equilibrium.cache import SolveCache
+from .equilibrium.outputs import resolve_outputs
+from .equilibrium.second_order import estimate_difference
+from .equilibrium.solve import solve_linear
 from .errors import ClearancePinError, LoadError, ModelError, SolverError
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
 from .model.joints import LoopJoint, TreeJoint
@@ -75,7 +78,6 @@ class Mechanism:
         collision_model=None,
     ):
         self.model = model
-        self.data = model.createData()
         self.tree_joints = tuple(tree_joints)
         self.loop_joints = tuple(loop_joints)
         self.q_nominal = pin.neutral(model) if q_nominal is None else np.array(q_nominal, float)
@@ -93,9 +95,12 @@ class Mechanism:
         self.joints.update({j.name: j for j in self.loop_joints})
         if len(self.joints) != len(self.tree_joints) + len(self.loop_joints):
             raise ModelError(source, "<joints>", "joint names must be unique across tree and loops")
-        self._solve_state: dict = {}
-        # placing the mechanism uses the one pin.Data: threads of solve_many take turns
-        self._placing = threading.RLock()
+        self.cache = SolveCache(model)
+
+    @property
+    def data(self) -> pin.Data:
+        """This thread's ``pin.Data`` of :attr:`model` (threads of ``solve_many`` each have one)."""
+        return self.cache.data
 
     @property
     def collision_model(self):
@@ -130,8 +135,9 @@ class Mechanism:
             raise ClearancePinError(
                 f"configuration must be {self.model.nq} finite numbers, got shape {q.shape}"
             )
-        with self._placing:  # one pin.Data: threads take turns
-            pin.framesForwardKinematics(self.model, self.data, q)
+        data = self.cache.data  # this thread's
+        with self.cache.lock:  # the closed configurations are shared by threads
+            pin.framesForwardKinematics(self.model, data, q)
             if self.loop_joints:
                 # the closed configuration of every q already closed: an eccentric mechanism
                 # (a misaligned housing) keeps a residual, which must not re-close on every call.
@@ -141,11 +147,11 @@ class Mechanism:
                 if cache is None or any(a is not b for a, b in zip(cache[0], owner)):
                     cache = self._closed_for = (owner, {})
                 known = cache[1].get(q.tobytes())
-                residual, _ = closure_residual(self, self.data) if known is None else (None, None)
+                residual, _ = closure_residual(self, data) if known is None else (None, None)
                 if known is not None:
                     q = known.copy()
                     self._last_closed = known
-                    pin.framesForwardKinematics(self.model, self.data, q)
+                    pin.framesForwardKinematics(self.model, data, q)
                 elif np.max(np.abs(residual), initial=0.0) > 1e-12 * self.length_scale():
                     requested = q.tobytes()
                     start = self._closed_start(q)
@@ -154,9 +160,9 @@ class Mechanism:
                     while len(cache[1]) >= 4096:  # the oldest entries go first
                         cache[1].pop(next(iter(cache[1])))
                     cache[1][requested] = cache[1][q.tobytes()] = self._last_closed
-                    pin.framesForwardKinematics(self.model, self.data, q)
-            oMi = tuple(m.copy() for m in self.data.oMi)
-            oMf = tuple(m.copy() for m in self.data.oMf)
+                    pin.framesForwardKinematics(self.model, data, q)
+            oMi = tuple(m.copy() for m in data.oMi)
+            oMf = tuple(m.copy() for m in data.oMf)
         frames = loop_joint_frames(self, oMf)
         problems = eccentricity_problems(self, oMf) if self.loop_joints else []
         if problems:  # the closure's own test, repeated for configurations it did not touch
@@ -273,38 +279,37 @@ class Mechanism:
             ) from None
 
     def _solve(self, resolved, exact, q, tol, backend, accuracy, warm_start, outputs=None):
-        from .equilibrium.outputs import resolve_outputs
-        from .equilibrium.solve import solve_exact, solve_linear
-
         points = resolve_outputs(self, resolved, outputs)
         linear = solve_linear(self, resolved, q, tol, backend, warm_start)
-        linear.output_points = points
+        linear = replace(linear, output_points=points)
         if exact == "auto":
-            from .equilibrium.second_order import estimate_difference
-
             estimate = estimate_difference(linear, resolved, q, points)
             error = max(estimate.translation_m, estimate.rotation_rad * self.length_scale())
-            linear.residuals["second_order_m"] = error
-            linear.difference_bound = estimate.as_dict()
+            linear = replace(
+                linear,
+                residuals=replace(linear.residuals, second_order_m=error),
+                difference_bound=estimate.as_dict(),
+            )
             if error <= accuracy:
-                linear.note = (
-                    f"auto: small-displacement model kept, its estimated difference from the "
-                    f"exact model at the outputs {error:.2e} m <= accuracy {accuracy:.0e} m"
+                return replace(
+                    linear,
+                    note=(
+                        f"auto: small-displacement model kept, its estimated difference from the "
+                        f"exact model at the outputs {error:.2e} m <= accuracy {accuracy:.0e} m"
+                    ),
                 )
-                return linear
-            result = solve_exact(self, resolved, q, linear, tol)
-            result.difference_bound = linear.difference_bound
+            result = _exact(self, resolved, q, linear, tol)
             why = (
                 f"estimated difference from the exact model at the outputs {error:.2e} m > "
                 f"accuracy {accuracy:.0e} m"
                 if estimate.reliable
                 else f"no reliable second-order estimate ({estimate.reason})"
             )
-            result.note = f"auto: exact model run, {why}"
-            return result
+            note = f"auto: exact model run, {why}" + (f"; {result.note}" if result.note else "")
+            return replace(result, difference_bound=linear.difference_bound, note=note)
         if not exact:
             return linear
-        return solve_exact(self, resolved, q, linear, tol)
+        return _exact(self, resolved, q, linear, tol)
 
     def solve_many(self, loads=None, configurations=None, **options):
         """Many equilibria, warm-started in sequence; see
@@ -316,18 +321,6 @@ class Mechanism:
         check_solve_many(self, loads, configurations, options)
         return solve_many(self, loads, configurations, **options)
 
-    def __getstate__(self) -> dict:
-        """Pickle without the built solvers (CasADi objects), which are rebuilt on demand."""
-        state = dict(self.__dict__)
-        state["_solve_state"] = {}
-        state.pop("data", None)
-        state.pop("_placing", None)
-        return state
-
-    def __setstate__(self, state: dict) -> None:
-        self.__dict__.update(state)
-        self.data = self.model.createData()
-        self._placing = threading.RLock()
 
     def joint(self, name: str):
         """The tree or loop joint called ``name``."""
@@ -342,3 +335,10 @@ class Mechanism:
             f"Mechanism({self.name!r}: {len(self.tree_joints)} tree joints, "
             f"{len(self.loop_joints)} loop joints, {len(self.loads)} loads)"
         )
+
+
+def _exact(mechanism, loads, q, linear, tol):
+    """The exact model's solve; imported on first use (CasADi loads then, not at import)."""
+    from .equilibrium.exact import solve_exact_model
+
+    return solve_exact_model(mechanism, loads, q, linear, tol)

@@ -185,7 +185,7 @@ def shape_cache(mechanism) -> dict:
 
     It lives in the mechanism's solver store, which is dropped on pickling and rebuilt on demand.
     """
-    return mechanism._solve_state.setdefault(("check", "shapes"), {})
+    return mechanism.cache.check_shapes
 
 
 __all__ = [

@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from concurrent.futures import Executor
+from dataclasses import replace
 
 import numpy as np
 
@@ -20,8 +21,10 @@ from ..progress import Progress
 from .batch_newton import batched_newton, stacked_evaluation
 from .cone_solver import acceptance
 from .kkt import UNLOADED
+from .linear_answer import assemble_linear
+from .prepared import prepared_geometry
 from .reduction import loaded_problem
-from .result import FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
+from .residuals import FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
 
 BATCH_MINIMUM = 16
 BATCH_MAX_SIZE = 48  # reduced unknowns beyond which cases are solved one by one (warm-started)
@@ -183,10 +186,7 @@ def solve_many(
     results = []
     for future in futures:
         chunk = future.result()
-        for result in chunk:
-            if not isinstance(result, Exception):
-                _reattach(result, mechanism)
-        results.extend(chunk)
+        results.extend(r if isinstance(r, Exception) else _reattached(r, mechanism) for r in chunk)
         bar.update(len(chunk))
     bar.close()
     return EquilibriumBatch(results)
@@ -200,8 +200,6 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     that fail the verification are regrouped: the first of them is solved alone and seeds the
     next batched round (at most :data:`REGROUP_ROUNDS`), and what is left is solved one by one.
     """
-    from .solve import prepared_geometry
-
     first = _solve_chunk(mechanism, cases[:1], options, errors)[0]
     if isinstance(first, Exception) or first.status != "optimal":
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
@@ -225,7 +223,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     items[0] = first
     pending = np.flatnonzero(regular)
     pending = pending[pending > 0]
-    seed = mechanism._solve_state.get(("warm", prepared.signature))
+    seed = mechanism.cache.warm.get(prepared.signature)
     x_all = np.full((len(cases), prepared.size_x), np.nan)
     batched = np.zeros(len(cases), dtype=bool)
     for _ in range(REGROUP_ROUNDS):
@@ -270,7 +268,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         pending = pending[1:]
         solved = items[i]
         seed = (
-            mechanism._solve_state.get(("warm", prepared.signature))
+            mechanism.cache.warm.get(prepared.signature)
             if not isinstance(solved, Exception)
             else None
         )
@@ -300,14 +298,12 @@ def _unique(stack, seed, y, multipliers, verified):
     return verified & (singular[:, -1] > 1e-9 * singular[:, 0])
 
 
-def _lazy_item(prepared, load, y, multipliers, signs, table, loads=None):
+def _lazy_item(prepared, load, y, multipliers, signs, table, loads):
     """The Equilibrium of one batched case, assembled when first read (``loads``: the case's
     resolved loads, kept for the joint reactions)."""
 
     def build():
-        from .solve import _assemble
-
-        equilibrium = _assemble(
+        return assemble_linear(
             prepared,
             loaded_problem(prepared.geometry, *load),
             y,
@@ -320,15 +316,15 @@ def _lazy_item(prepared, load, y, multipliers, signs, table, loads=None):
             0.0,
             0.0,
             dict(zip(RESIDUAL_NAMES, map(float, table))),
+            loads,
         )
-        equilibrium.loads = loads
-        return equilibrium
 
     return build
 
 
-def _reattach(equilibrium, mechanism) -> None:
-    """Point a result computed in another process at the caller's mechanism object."""
-    equilibrium.mechanism = mechanism
-    if equilibrium.linear is not None:
-        equilibrium.linear.mechanism = mechanism
+def _reattached(equilibrium, mechanism):
+    """A result computed in another process, pointing at the caller's mechanism object."""
+    linear = equilibrium.linear
+    if linear is not None:
+        linear = replace(linear, mechanism=mechanism)
+    return replace(equilibrium, mechanism=mechanism, linear=linear)

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import ArgumentError
 from .kkt import ACCEPT_KKT, ACTIVE_GAP, active_set_solve, residuals
 from .reduction import ReducedProblem
 
@@ -243,21 +244,22 @@ class ClarabelBackend:
         return self._sparse.csc_matrix(np.vstack(blocks))
 
 
-_BACKENDS: dict[tuple, object] = {}
-
-
-def backend_for(problem: ReducedProblem, backend: str = "auto", tol: float = 1e-12, signature=None):
-    """The built backend for this problem's signature (``problem.signature()`` unless given), and
-    whether it was built now."""
+def backend_for(
+    problem: ReducedProblem, backend: str, tol: float, signature, kept: dict
+) -> tuple[IpoptBackend | ClarabelBackend, bool]:
+    """The built backend for this problem's ``signature`` (``problem.signature()`` when None),
+    kept in ``kept`` (the mechanism's :attr:`~.cache.SolveCache.backends`), and whether it was
+    built now."""
     if backend not in BACKENDS:
-        raise ValueError(f"unknown backend {backend!r}; expected one of {BACKENDS}")
+        raise ArgumentError("backend", f"one of {', '.join(BACKENDS)}", backend)
     if backend == "auto":
         backend = "clarabel" if clarabel_available() else "ipopt"
     key = (backend, problem.signature() if signature is None else signature, tol)
-    if key in _BACKENDS:
-        return _BACKENDS[key], False
+    built = kept.get(key)
+    if built is not None:
+        return built, False
     built = ClarabelBackend(key[1], tol) if backend == "clarabel" else IpoptBackend(key[1], tol)
-    _BACKENDS[key] = built
+    kept[key] = built
     return built, True
 
 

@@ -28,8 +28,11 @@ from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
 from .kkt import ACCEPT_KKT
+from .outputs import output_displacements, resolve_outputs
+from .prepared import linear_setup
 from .reactions import frames_at
-from .result import STATICS_TOLERANCE, Contact, Equilibrium
+from .residuals import STATICS_TOLERANCE, Residuals
+from .result import Contact, Equilibrium
 from .small_displacement import null_space, tree_joint_basis
 
 
@@ -279,20 +282,18 @@ def independent_rows(equalities: np.ndarray, scale: np.ndarray) -> tuple[int, ..
 
 def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> Equilibrium:
     """Solve the exact model from the linear equilibrium ``linear``; residuals measured."""
-    from .solve import linear_setup
-
+    points = linear.output_points or resolve_outputs(mechanism, linear.loads or ())
     if linear.status == "indeterminate":  # nothing moves: the exact answer is the nominal one
-        unmoved = replace(linear, formulation="exact", linear=linear)
-        unmoved.difference = _difference(unmoved, linear)
-        return unmoved
+        unmoved = replace(linear, formulation="exact", linear=linear, output_points=points)
+        return replace(unmoved, difference=_difference(unmoved, linear, points))
     configuration, _maps, body_loads, problem = linear_setup(mechanism, loads, q)
     rows = independent_rows(problem.equalities, problem.scale)
     key = ("exact", problem.signature(), problem.free_motions.shape[1], rows, tol)
-    cache = mechanism._solve_state
-    built_now = key not in cache
+    problems = mechanism.cache.exact_problems
+    exact = problems.get(key)
+    built_now = exact is None
     if built_now:
-        cache[key] = ExactProblem(mechanism, problem, rows, tol)
-    exact = cache[key]
+        exact = problems[key] = ExactProblem(mechanism, problem, rows, tol)
     sigma = problem.objective_scale or 1.0
     params = ca.DM(exact.parameters(configuration, problem.scale, body_loads, problem, sigma))
     x_linear = np.concatenate([_coordinates(linear, joint) for joint in mechanism.tree_joints])
@@ -332,12 +333,16 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
             equilibrium = _assemble(
                 mechanism, exact, problem, configuration, z, lam, parts, sigma, stats, True
             )
-    equilibrium.polished = polished is not None
-    equilibrium.build_time = exact.build_time if built_now else 0.0
-    equilibrium.solve_time = time.perf_counter() - solve_started
-    equilibrium.linear = linear
-    equilibrium.loads = tuple(loads)  # for the joint reactions
-    equilibrium.difference = _difference(equilibrium, linear)
+    equilibrium = replace(
+        equilibrium,
+        polished=polished is not None,
+        build_time=exact.build_time if built_now else 0.0,
+        solve_time=time.perf_counter() - solve_started,
+        linear=linear,
+        loads=tuple(loads),
+        output_points=points,
+    )
+    equilibrium = replace(equilibrium, difference=_difference(equilibrium, linear, points))
     held = equilibrium.residuals["held_by_gauge"]
     if held > STATICS_TOLERANCE:
         rotation = max(
@@ -352,17 +357,19 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
                 ],
                 held,
             )
-        equilibrium.note = (
+        note = (
             f"exact: {held:.2g} of the load works, at the solved pose, along the motions the "
             "linear model leaves free (a torque on a part whose free spin the play has tilted) "
             "and they do not settle nearby; they are held where the linear answer puts them, as a "
             "drive or the least friction would (reported as the reactions' 'held' part)"
         )
+        equilibrium = replace(equilibrium, note=note)
     if not equilibrium.ok:
         raise SolverError(
             "the exact solve did not reach a verified optimum",
             stats["return_status"],
             equilibrium.residuals,
+            equilibrium,
         )
     return equilibrium
 
@@ -642,7 +649,7 @@ def _assemble(
         status="optimal",
         solver_status=stats["return_status"],
         iterations=int(stats.get("iter_count", 0)),
-        residuals=residuals,
+        residuals=Residuals.of(residuals),
         free_motions=problem.free_descriptions,
         build_time=0.0,
         solve_time=0.0,
@@ -655,14 +662,10 @@ def _assemble(
     )
 
 
-def _difference(exact: Equilibrium, linear: Equilibrium) -> dict:
-    """Exact - linear at the outputs of ``linear`` (which the exact answer takes over): per
-    output (translation (3,) [m], rotation (3,) [rad]), world axes, their largest norms, and the
-    largest difference of a joint torsor component (see ``Equilibrium.difference``)."""
-    from .outputs import output_displacements, resolve_outputs
-
-    points = linear.output_points or resolve_outputs(linear.mechanism, linear.loads or ())
-    exact.output_points = points
+def _difference(exact: Equilibrium, linear: Equilibrium, points) -> dict:
+    """Exact - linear at the output ``points``: per output (translation (3,) [m], rotation (3,)
+    [rad]), world axes, their largest norms, and the largest difference of a joint torsor
+    component (see ``Equilibrium.difference``)."""
     moved_exact = output_displacements(exact, points)
     moved_linear = output_displacements(linear, points)
     outputs = {

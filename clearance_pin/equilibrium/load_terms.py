@@ -42,11 +42,13 @@ class BodyLoad:
 
 
 def gather_body_loads(
-    model: pin.Model, data: pin.Data, loads: tuple[Load, ...], link_frames: dict[str, int]
+    model: pin.Model, placed, loads: tuple[Load, ...], link_frames: dict[str, int]
 ) -> dict[int, BodyLoad]:
-    """Gather loads per body at the configuration placed in ``data`` (oMi, oMf up to date).
+    """Gather loads per body at a configuration: the one gathering of loads of both models.
 
     Args:
+        placed: anything with ``oMi``, the world placement of every joint frame (a
+            :class:`~clearance_pin.mechanism.Configuration`, a placed ``pin.Data``).
         link_frames: URDF link name -> Pinocchio BODY frame id.
     """
     acc: dict[int, list[np.ndarray]] = {}
@@ -60,7 +62,7 @@ def gather_body_loads(
                 inertia = model.inertias[body]
                 if inertia.mass > 0.0:
                     _add_force(
-                        entry(body), data.oMi[body], inertia.lever, inertia.mass * load.acceleration
+                        entry(body), placed.oMi[body], inertia.lever, inertia.mass * load.acceleration
                     )
             continue
         if load.link not in link_frames:
@@ -72,7 +74,7 @@ def gather_body_loads(
             continue  # a load on the fixed ground does no work
         if isinstance(load, PointForce):
             point_in_body = frame.placement.act(np.asarray(load.point))
-            _add_force(entry(body), data.oMi[body], point_in_body, np.asarray(load.force))
+            _add_force(entry(body), placed.oMi[body], point_in_body, np.asarray(load.force))
         elif isinstance(load, Torque):
             slot = entry(body)
             slot[2] += load.torque

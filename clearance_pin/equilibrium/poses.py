@@ -2,9 +2,9 @@ r"""Both clearance frames of every joint at a solved pose (parent side and child
 
 For a tree joint the parent side is the child's nominal joint frame carried by the parent part,
 :math:`oM_p\, (oM_{p0}^{-1} oM_{k0})\, C_k`, and the child side is :math:`oM_k C_k`; for a loop joint
-they are :math:`oM_a\, {}^aM_c` and :math:`oM_b\, {}^bM_c`
-(``Configuration.aMc``, ``Configuration.bMc``: the zone sits where the child part is). The child frame in the parent frame is the
-joint's finite relative motion, on which the contact conditions are written.
+they are :math:`oM_a\, {}^aM_c` and :math:`oM_b\, {}^bM_c` (``Configuration.aMc``,
+``Configuration.bMc``: the zone sits where the child part is). The child frame in the parent frame
+is the joint's finite relative motion, on which the contact conditions are written.
 """
 
 from __future__ import annotations

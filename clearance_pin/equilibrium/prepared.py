@@ -17,23 +17,23 @@ times, so every load-independent product is formed here, and a solve costs a few
 from __future__ import annotations
 
 import statistics
-from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
-from ..errors import LoadError
-from ..model.loads import Gravity, PointForce, Torque
-from ..numerics import cross
 from .kkt import UNLOADED
+from .lazy import LazySequence
+from .load_terms import gather_body_loads
 from .reduction import (
     ROUND_OFF_WORK,
     UNBOUNDED_FRACTION,
     ReducedGeometry,
     describe_motion,
+    reduce_geometry,
     with_scaled_load,
 )
-from .small_displacement import SmallDisplacementMaps, null_space
+from .small_displacement import SmallDisplacementMaps, build_maps, null_space
 
 
 class PreparedGeometry:
@@ -46,14 +46,15 @@ class PreparedGeometry:
         signature: sizes and contact shapes (what a built optimiser depends on).
     """
 
-    def __init__(self, mechanism, configuration, maps: SmallDisplacementMaps, geometry):
-        geometry: ReducedGeometry
+    def __init__(
+        self, mechanism, configuration, maps: SmallDisplacementMaps, geometry: ReducedGeometry
+    ):
         self.mechanism = mechanism
         self.configuration = configuration
         self.maps = maps
         self.geometry = geometry
         self.length = mechanism.length_scale()
-        self.__dict__.update(_geometry_terms(mechanism, geometry))  # shared by configurations
+        self.terms = geometry_terms(mechanism, geometry)  # shared by configurations
         bodies = mechanism.model.njoints
         self.bodies = bodies
         # rows: scaled gradient Z g (n), reduced Q^T Z g (r), along the unblocked motions (f)
@@ -61,57 +62,44 @@ class PreparedGeometry:
         self._load_rows = np.vstack(
             [scaled, geometry.basis.T @ scaled, geometry.free_scaled.T @ scaled]
         )
-        self._frames: dict[str, tuple] = {}  # link -> (body, R, t), filled on first use
-        self._gravity: np.ndarray | None = None
         # answer maps
-        self._torsor_rows = np.vstack([maps.joint_torsor[name] for name in self.joint_names])
+        self._torsor_rows = np.vstack([maps.joint_torsor[name] for name in self.terms.joint_names])
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
 
+    @property
+    def signature(self) -> tuple:
+        """Sizes and contact shapes: what a built optimiser depends on."""
+        return self.terms.signature
+
+    @property
+    def size_x(self) -> int:
+        """Number of unknowns n."""
+        return self.terms.size_x
+
+    @property
+    def x_from_y(self) -> np.ndarray:
+        """Z Q, (n, r): x = Z Q y."""
+        return self.terms.x_from_y
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """Clearance of every contact [m], (m,)."""
+        return self.terms.bounds
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Tree and loop joints, in the order of :meth:`torsor_array`."""
+        return self.terms.joint_names
+
     # -- loads ---------------------------------------------------------------------------------
-    def _frame(self, link: str) -> tuple:
-        """(body, R, t): the body carrying ``link`` and the link frame's world placement."""
-        entry = self._frames.get(link)
-        if entry is None:
-            frame_id = self.mechanism.link_frames.get(link)
-            if frame_id is None:
-                known = ", ".join(sorted(self.mechanism.link_frames))
-                raise LoadError(f"on {link!r}", f"unknown link; the model's links are: {known}")
-            placement = self.configuration.oMf[frame_id]
-            body = self.mechanism.model.frames[frame_id].parentJoint
-            entry = (body, placement.rotation.copy(), placement.translation.copy())
-            self._frames[link] = entry
-        return entry
-
-    def _gravity_map(self) -> np.ndarray:
-        """W_b = (m a, c_b x m a) = Gm_b a per body (c_b: world centre of mass), (6 bodies, 3)."""
-        if self._gravity is None:
-            model = self.mechanism.model
-            gravity = np.zeros((self.bodies, 6, 3))
-            for body in range(1, self.bodies):
-                inertia = model.inertias[body]
-                if inertia.mass > 0.0:
-                    centre = self.configuration.oMi[body].act(inertia.lever)
-                    gravity[body, :3] = inertia.mass * np.eye(3)
-                    gravity[body, 3:] = inertia.mass * pin.skew(centre)
-            self._gravity = gravity.reshape(6 * self.bodies, 3)
-        return self._gravity
-
     def wrenches(self, loads) -> np.ndarray:
-        """Body wrenches at the world origin (bodies, 6) [N, N m] of ``loads`` (ground excluded)."""
+        """Body wrenches at the world origin (bodies, 6) [N, N m] of ``loads`` (ground excluded),
+        from the one gathering of loads per body (:func:`~.load_terms.gather_body_loads`)."""
         wrench = np.zeros((self.bodies, 6))
-        for load in loads:
-            if isinstance(load, Gravity):
-                wrench += (self._gravity_map() @ load.acceleration).reshape(self.bodies, 6)
-                continue
-            body, rotation, translation = self._frame(load.link)
-            if isinstance(load, PointForce):
-                point = rotation @ load.point + translation
-                wrench[body, :3] += load.force
-                wrench[body, 3:] += cross(point, load.force)
-            elif isinstance(load, Torque):
-                wrench[body, 3:] += load.torque
-        wrench[0] = 0.0  # a load on the fixed ground does no work
+        model, links = self.mechanism.model, self.mechanism.link_frames
+        for body, load in gather_body_loads(model, self.configuration, loads, links).items():
+            wrench[body] = load.wrench
         return wrench
 
     def problem(self, loads):
@@ -119,9 +107,9 @@ class PreparedGeometry:
         :func:`~.reduction.with_scaled_load`)."""
         wrench = self.wrenches(loads)
         stacked = self._load_rows @ wrench.ravel()
-        first, second = self._split
+        first, second = self.terms.split
         halves = np.sqrt((wrench * wrench).reshape(-1, 2, 3).sum(axis=2))  # |F_b|, |M_b|
-        size = float(np.dot(halves.sum(axis=0), self._size_weights))
+        size = float(np.dot(halves.sum(axis=0), self.terms.size_weights))
         return with_scaled_load(
             self.geometry,
             stacked[:first],
@@ -143,7 +131,7 @@ class PreparedGeometry:
             single solve, which raises or reports them).
         """
         stacked = wrenches @ self._load_rows.T
-        first, second = self._split
+        first, second = self.terms.split
         scaled, reduced, along_free = (
             stacked[:, :first],
             stacked[:, first:second],
@@ -151,7 +139,7 @@ class PreparedGeometry:
         )
         per_body = wrenches.reshape(len(wrenches), self.bodies, 2, 3)
         sizes = np.linalg.norm(per_body, axis=3)
-        load_sizes = self.play * (
+        load_sizes = self.terms.play * (
             sizes[:, :, 0].sum(axis=1) + sizes[:, :, 1].sum(axis=1) / max(self.length, 1e-300)
         )
         references = np.maximum(np.linalg.norm(scaled, axis=1), load_sizes)
@@ -195,14 +183,14 @@ class PreparedGeometry:
         Forces: a ball or disc pushes back along its image, :math:`f = -2\sigma\lambda_j
         (o_j + S_j x) / c_j^2`; a slab side :math:`f = -\sigma\lambda_j s_j / c_j`.
         """
-        image = x @ self._contact_rows.T + self._contact_offsets
+        image = x @ self.terms.contact_rows.T + self.terms.contact_offsets
         if not image.shape[-1]:
             return image, image
         # a slab has one row, so |s^T x| is the root of its sum of squares too
-        gaps = self.bounds - np.sqrt(np.add.reduceat(image * image, self._starts, axis=-1))
-        row = self._contact_of_row
+        gaps = self.bounds - np.sqrt(np.add.reduceat(image * image, self.terms.starts, axis=-1))
+        row = self.terms.contact_of_row
         forces = (objective_scale * multipliers[..., row]) * (
-            self._norm_force * image + self._slab_force * signs[row]
+            self.terms.norm_force * image + self.terms.slab_force * signs[row]
         )
         return gaps, forces
 
@@ -214,17 +202,17 @@ class PreparedGeometry:
         The reference is the larger of :math:`\|Z g\|` and ``load_size`` (the whole load on the
         clearance scale): a load through a pivot leaves a round-off g that is no imbalance."""
         scale = self.geometry.scale
-        scaled = scale * (gradient - forces @ self._contact_rows)
-        if self._reactions.shape[1]:
-            scaled = scaled - (scaled @ self._reactions) @ self._reactions.T
+        scaled = scale * (gradient - forces @ self.terms.contact_rows)
+        if self.terms.reactions.shape[1]:
+            scaled = scaled - (scaled @ self.terms.reactions) @ self.terms.reactions.T
         reference = np.maximum(np.sqrt(((scale * gradient) ** 2).sum(axis=-1)), load_size)
         residual = np.sqrt((scaled * scaled).sum(axis=-1)) / np.where(reference > 0, reference, 1)
         return float(residual) if np.ndim(residual) == 0 else residual
 
     def contact_forces(self, forces: np.ndarray) -> np.ndarray:
         """Stacked force rows -> one (3,) force per contact in its clearance frame, (m, 3)."""
-        out = np.zeros(3 * len(self._starts))
-        out[self._scatter] = forces
+        out = np.zeros(3 * len(self.terms.starts))
+        out[self.terms.scatter] = forces
         return out.reshape(-1, 3)
 
     def flat_directions(self, y, multipliers, signs) -> tuple[np.ndarray, LazySequence]:
@@ -264,11 +252,51 @@ class PreparedGeometry:
         return flat, descriptions
 
 
-def _geometry_terms(mechanism, geometry) -> dict:
+@dataclass(frozen=True)
+class GeometryTerms:
     """The load- and configuration-independent terms of a reduced geometry, built once per
-    geometry (a mechanism without loops has one geometry for all its configurations)."""
-    key = ("geometry terms", id(geometry))
-    cached = mechanism._solve_state.get(key)
+    geometry (a mechanism without loops has one geometry for all its configurations).
+
+    Attributes:
+        signature: sizes and contact shapes (what a built optimiser depends on).
+        size_x: number of unknowns n.
+        split: (n, n + r): where the stacked load rows change from Z g to Q^T Z g to K^T Z g.
+        play: median scale of the unknowns [m or rad], the clearance scale of load sizes.
+        size_weights: (play, play / L): the whole load on the clearance scale is
+            sum_b |F_b| play + |M_b| play / L [J].
+        x_from_y: Z Q, (n, r).
+        joint_names: tree then loop joints.
+        contact_rows: S_j stacked, (rows, n) [m per unit]; contact_offsets: o_j stacked (rows,) [m].
+        bounds: clearance per contact (m,) [m].
+        contact_of_row, starts, is_norm: the stack's bookkeeping (:class:`~.kkt.StackedContacts`).
+        scatter: stacked force rows -> index in the (m, 3) force array.
+        norm_force, slab_force: per row, the factors of :meth:`PreparedGeometry.contact_state`.
+        reactions: orthonormal basis (n, k) of the rigid reactions of the closure, range Z E^T.
+    """
+
+    signature: tuple
+    size_x: int
+    split: tuple[int, int]
+    play: float
+    size_weights: np.ndarray
+    x_from_y: np.ndarray
+    joint_names: tuple[str, ...]
+    contact_rows: np.ndarray
+    contact_offsets: np.ndarray
+    bounds: np.ndarray
+    contact_of_row: np.ndarray
+    starts: np.ndarray
+    is_norm: np.ndarray
+    scatter: np.ndarray
+    norm_force: np.ndarray
+    slab_force: np.ndarray
+    reactions: np.ndarray
+
+
+def geometry_terms(mechanism, geometry: ReducedGeometry) -> GeometryTerms:
+    """The :class:`GeometryTerms` of ``geometry``, from the mechanism's cache or built now."""
+    cache = mechanism.cache
+    cached = cache.geometry_terms.get(id(geometry))
     if cached is not None and cached[0] is geometry:
         return cached[1]
     scale = geometry.scale
@@ -284,109 +312,77 @@ def _geometry_terms(mechanism, geometry) -> dict:
     row_is_norm = stack.row_is_norm
     play = float(statistics.median(scale.tolist())) if scale.size else 0.0
     length = mechanism.length_scale()
-    stack.projection_hints = mechanism._solve_state.setdefault(
-        ("projection hints", signature), set()
-    )
-    terms = {
-        "signature": signature,
-        "size_x": n,
-        "_split": (n, n + geometry.basis.shape[1]),
-        "play": play,
-        # the whole load on the clearance scale: sum_b |F_b| c + |M_b| c / L (c: median scale)
-        "_size_weights": np.array([play, play / max(length, 1e-300)]),
-        "x_from_y": scale[:, None] * geometry.basis,
-        "joint_names": tuple(mechanism.joints),
-        "_contact_rows": np.vstack([c.rows for c in contacts]) if contacts else np.zeros((0, n)),
-        "_contact_offsets": np.concatenate([c.offset for c in contacts]) if contacts else np.zeros(0),
-        "bounds": bounds,
-        "_contact_of_row": stack.row_contact,
-        "_starts": stack.starts,
-        "_is_norm": stack.is_norm,
-        "_scatter": np.array(
+    with cache.lock:
+        stack.projection_hints = cache.projection_hints.setdefault(signature, set())
+    terms = GeometryTerms(
+        signature=signature,
+        size_x=n,
+        split=(n, n + geometry.basis.shape[1]),
+        play=play,
+        size_weights=np.array([play, play / max(length, 1e-300)]),
+        x_from_y=scale[:, None] * geometry.basis,
+        joint_names=tuple(mechanism.joints),
+        contact_rows=np.vstack([c.rows for c in contacts]) if contacts else np.zeros((0, n)),
+        contact_offsets=np.concatenate([c.offset for c in contacts]) if contacts else np.zeros(0),
+        bounds=bounds,
+        contact_of_row=stack.row_contact,
+        starts=stack.starts,
+        is_norm=stack.is_norm,
+        scatter=np.array(
             [3 * j + k for j, c in enumerate(contacts) for k in c.contact.components], dtype=int
         ),
-        "_norm_force": np.where(row_is_norm, -2.0 / row_bounds**2, 0.0),
-        "_slab_force": np.where(row_is_norm, 0.0, -1.0 / row_bounds),
-        "_reactions": _column_basis(geometry.equalities.T * scale[:, None]),
-    }
-    mechanism._solve_state[key] = (geometry, terms)
+        norm_force=np.where(row_is_norm, -2.0 / row_bounds**2, 0.0),
+        slab_force=np.where(row_is_norm, 0.0, -1.0 / row_bounds),
+        reactions=_column_basis(geometry.equalities.T * scale[:, None]),
+    )
+    with cache.lock:
+        cache.geometry_terms[id(geometry)] = (geometry, terms)
     return terms
 
 
-class LazyMapping(Mapping):
-    """A read-only mapping computed by ``compute()`` on first access (for answers a caller
-    rarely reads, such as every body's motion after each of thousands of re-solves)."""
-
-    def __init__(self, compute):
-        self._compute = compute
-        self._value: dict | None = None
-
-    def _get(self) -> dict:
-        if self._value is None:
-            self._value = self._compute()
-        return self._value
-
-    def __getitem__(self, key):
-        return self._get()[key]
-
-    def __iter__(self):
-        return iter(self._get())
-
-    def __len__(self) -> int:
-        return len(self._get())
-
-    def __repr__(self) -> str:
-        return repr(self._get())
-
-    def __reduce__(self):
-        return (dict, (self._get(),))  # pickled computed: results travel to other processes
+def prepared_geometry(mechanism, q=None) -> PreparedGeometry:
+    """The mechanism prepared at ``q`` (default: nominal), kept in its cache per configuration:
+    closing the loops, the maps and the reduction are done once, so a new load costs a few array
+    products."""
+    cache = mechanism.cache
+    key = None if q is None else np.asarray(q, dtype=float).tobytes()
+    prepared = cache.geometry(key)
+    if prepared is None:
+        with cache.lock:  # one build per configuration, whichever thread asks first
+            prepared = cache.geometry(key)
+            if prepared is not None:
+                return prepared
+            configuration = mechanism.configure(q)
+            data = cache.data
+            pin.framesForwardKinematics(mechanism.model, data, configuration.q)
+            maps = build_maps(
+                mechanism.model, data, mechanism.tree_joints, mechanism.loop_joints, configuration
+            )
+            prepared = PreparedGeometry(mechanism, configuration, maps, _reduced(mechanism, maps))
+            cache.keep_geometry(key, prepared)
+    return prepared
 
 
-class LazySequence(Sequence):
-    """A read-only sequence computed by ``compute()`` on first access (world placements of every
-    body, descriptions of free motions: answers a planner re-solving thousands of times rarely
-    reads)."""
-
-    def __init__(self, compute):
-        self._compute = compute
-        self._value: tuple | None = None
-
-    def _get(self) -> tuple:
-        if self._value is None:
-            self._value = tuple(self._compute())
-        return self._value
-
-    def __len__(self) -> int:
-        return len(self._get())
-
-    def __getitem__(self, index):
-        return self._get()[index]
-
-    def __eq__(self, other) -> bool:
-        return tuple(self) == tuple(other) if isinstance(other, Sequence) else NotImplemented
-
-    def __hash__(self) -> int:
-        return hash(self._get())
-
-    def __add__(self, other):
-        return LazySequence(lambda: (*self, *other))
-
-    def __reduce__(self):
-        return (tuple, (self._get(),))  # pickled computed: results travel to other processes
-
-    def __repr__(self) -> str:
-        return repr(self._get())
+def _reduced(mechanism, maps: SmallDisplacementMaps) -> ReducedGeometry:
+    """The reduction at the configuration of ``maps``; without loop joints it is the same at every
+    configuration (the unknowns are the joints' own torsors and each contact reads its own joint's
+    torsor, so no constraint depends on where the parts are), so it is done once."""
+    if mechanism.loop_joints:
+        return reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
+    cache = mechanism.cache
+    if cache.tree_geometry is None:
+        cache.tree_geometry = reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
+    return cache.tree_geometry
 
 
-def placements(twists: np.ndarray, nominal: tuple) -> LazySequence:
-    r"""World placements of every body at a linear solution, :math:`\exp(\xi_b)\, oM_{b0}`,
-    computed on first access."""
-    return LazySequence(
-        lambda: (
-            nominal[0],
-            *(pin.exp6(pin.Motion(twists[i])) * nominal[i] for i in range(1, len(nominal))),
-        )
+def linear_setup(mechanism, loads, q):
+    """Configuration, maps, per-body loads (with the exact model's terms) and reduced problem."""
+    prepared = prepared_geometry(mechanism, q)
+    configuration = prepared.configuration
+    body_loads = gather_body_loads(
+        mechanism.model, configuration, loads, mechanism.link_frames
     )
+    return configuration, prepared.maps, body_loads, prepared.problem(loads)
 
 
 def _column_basis(matrix: np.ndarray) -> np.ndarray:

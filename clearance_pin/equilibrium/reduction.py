@@ -32,6 +32,7 @@ from ..kinematics.loop_frames import nominal_offsets
 from ..model.clearance import COMPONENT_MEANING, COMPONENT_NAMES, ContactPoint
 from ..numerics import norm
 from .kkt import StackedContacts
+from .lazy import LazySequence
 from .small_displacement import SmallDisplacementMaps
 
 UNBOUNDED_FRACTION = 1e-9
@@ -186,8 +187,6 @@ def reduce_geometry(
     basis = closure_basis @ seen_w
     matrices = tuple((c.rows * scale) @ basis / c.contact.bound for c in contacts)
     free_x = scale[:, None] * free_z
-    from .prepared import LazySequence
-
     descriptions = LazySequence(
         lambda: (
             "; ".join(describe_motion(maps, joints, free_x[:, i], length_scale))
@@ -211,28 +210,6 @@ def reduce_geometry(
         matrices,
         stack,
         conditioning,
-    )
-
-
-def with_load(
-    geometry: ReducedGeometry,
-    gradient: np.ndarray,
-    maps: SmallDisplacementMaps,
-    joints: dict,
-    length_scale: float,
-    load_size: float = 0.0,
-) -> ReducedProblem:
-    """The reduced problem for one load gradient g (x-space); see :func:`with_scaled_load`."""
-    scaled_gradient = geometry.scale * gradient
-    return with_scaled_load(
-        geometry,
-        scaled_gradient,
-        geometry.basis.T @ scaled_gradient,
-        geometry.free_scaled.T @ scaled_gradient,
-        maps,
-        joints,
-        length_scale,
-        load_size,
     )
 
 
@@ -300,14 +277,6 @@ def loaded_problem(
         geometry.conditioning,
         float(load_size),
     )
-
-
-def reduce(
-    maps: SmallDisplacementMaps, joints: dict, gradient: np.ndarray, length_scale: float
-) -> ReducedProblem:
-    """Assemble and reduce the small-displacement problem for one load (both stages)."""
-    geometry = reduce_geometry(maps, joints, length_scale)
-    return with_load(geometry, gradient, maps, joints, length_scale)
 
 
 def _constraints(maps: SmallDisplacementMaps, joints: dict):

@@ -16,15 +16,20 @@ origin, world axes; loads are given in world axes.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ClearancePinError
+from ..errors import NotFoundError
+from .outputs import output_displacements, resolve_outputs
+from .reactions import joint_reactions
+from .residuals import Residuals
 
-STATICS_TOLERANCE = 1e-8
-FEASIBILITY_TOLERANCE = 1e-9
+Formulation = Literal["linear", "exact"]
+Status = Literal["optimal", "indeterminate"]
 
 
 @dataclass(frozen=True)
@@ -65,9 +70,9 @@ class Contact:
         return float(np.linalg.norm(self.force))
 
 
-@dataclass
+@dataclass(frozen=True)
 class Equilibrium:
-    """Quasi-static equilibrium of a mechanism in its joint clearances.
+    """Quasi-static equilibrium of a mechanism in its joint clearances (immutable).
 
     Attributes:
         formulation: ``"linear"`` (small displacements, [Y]) or ``"exact"`` (finite rigid motions).
@@ -79,10 +84,8 @@ class Equilibrium:
         status: ``"optimal"``, or ``"indeterminate"`` (no load on any admissible motion).
         solver_status: the optimiser's own status text.
         iterations: optimiser iterations.
-        residuals: measured residuals (dimensionless unless named ``_m``): stationarity,
-            feasibility, complementarity, dual_infeasibility, statics, ``max_violation_m`` [m]
-            and ``max_violation_rel`` (penetration over the play), ``closure_conditioning``, and
-            for the exact model ``closure`` [m] (loop equations, including redundant ones).
+        residuals: the residuals measured by the library (:class:`~.residuals.Residuals`:
+            KKT, statics, penetration, and per formulation closure conditioning or closure).
         free_motions: motions that no contact sees, left at zero (minimum-norm optimum).
         build_time, solve_time: [s]; build_time is 0 when a built problem was re-used.
         polished: the active-set Newton polish was accepted.
@@ -109,25 +112,25 @@ class Equilibrium:
             :meth:`reaction` needs them.
     """
 
-    formulation: str
-    torsors: dict[str, np.ndarray]
-    body_motions: dict[str, tuple[np.ndarray, np.ndarray]]
-    contacts: tuple[Contact, ...]
+    formulation: Formulation
+    torsors: Mapping[str, np.ndarray]
+    body_motions: Mapping[str, tuple[np.ndarray, np.ndarray]]
+    contacts: Sequence[Contact]
     energy: float
-    status: str
+    status: Status
     solver_status: str
     iterations: int
-    residuals: dict[str, float]
-    free_motions: tuple[str, ...]
+    residuals: Residuals
+    free_motions: Sequence[str]
     build_time: float
     solve_time: float
     polished: bool = False
-    difference: dict[str, float] | None = None
+    difference: dict | None = None
     linear: Equilibrium | None = None
-    body_placements: tuple = ()
-    mechanism: object = field(default=None, repr=False)
-    configuration: object = field(default=None, repr=False)
-    body_twists: np.ndarray | None = field(default=None, repr=False)
+    body_placements: Sequence[pin.SE3] = ()
+    mechanism: object = field(default=None, repr=False, compare=False)
+    configuration: object = field(default=None, repr=False, compare=False)
+    body_twists: np.ndarray | None = field(default=None, repr=False, compare=False)
     note: str = ""
     loads: tuple | None = field(default=None, repr=False)
     output_points: tuple = field(default=(), repr=False)
@@ -135,24 +138,15 @@ class Equilibrium:
 
     @property
     def ok(self) -> bool:
-        """Residuals within tolerance: every contact inside its play (to 1e-9 of that play), the
-        loop closure held (exact model), the contact forces balancing the load (statics), and no
-        contact pulling (dual feasibility)."""
-        r = self.residuals
-        return (
-            r.get("max_violation_rel", 0.0) <= FEASIBILITY_TOLERANCE
-            and r.get("closure", 0.0)
-            <= FEASIBILITY_TOLERANCE * max(r.get("clearance_m", 0.0), 1e-12)
-            and r.get("statics", 0.0) <= STATICS_TOLERANCE
-            and r.get("dual_infeasibility", 0.0) <= 1e-8
-        )
+        """Residuals within tolerance (:meth:`.residuals.Residuals.ok`): every contact inside its
+        play (to 1e-9 of that play), the loop closure held (exact model), the contact forces
+        balancing the load (statics), and no contact pulling (dual feasibility)."""
+        return self.residuals.ok()
 
     def torsor(self, joint: str) -> np.ndarray:
         """Torsor (u, v, w, alpha, beta, gamma) [m, rad] of ``joint`` in its clearance frame."""
         if joint not in self.torsors:
-            raise ClearancePinError(
-                f"unknown joint {joint!r}; the joints are: {', '.join(self.torsors)}"
-            )
+            raise NotFoundError("joint", joint, tuple(self.torsors))
         return self.torsors[joint].copy()
 
     def frame_displacement(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
@@ -161,11 +155,9 @@ class Equilibrium:
         Linear formulation: :math:`(v_b + \\omega_b \\times p_f, \\omega_b)` from the body twist;
         exact: the finite displacement, rotation as a rotation vector (log3).
         """
-        import pinocchio as pin
-
         model = self.mechanism.model
         if not model.existFrame(frame):
-            raise ClearancePinError(f"unknown frame {frame!r} in {self.mechanism.name!r}")
+            raise NotFoundError("frame", frame, [f.name for f in model.frames], self.mechanism.name)
         frame_id = model.getFrameId(frame)
         body = model.frames[frame_id].parentJoint
         nominal = self.configuration.oMf[frame_id]
@@ -185,8 +177,6 @@ class Equilibrium:
         (``link@[x y z]``, link frame) and the frames asked for in ``solve(outputs=...)``
         (default: the leaf links). Linear: :math:`(v + \omega \times p, \omega)`; exact: the
         finite displacement, rotation as log3 (:mod:`.outputs`)."""
-        from .outputs import output_displacements, resolve_outputs
-
         points = self.output_points or resolve_outputs(self.mechanism, self.loads or ())
         return output_displacements(self, points)
 
@@ -204,10 +194,8 @@ class Equilibrium:
             :class:`~clearance_pin.equilibrium.reactions.Reaction` (force [N], moment [N m],
             its parts and the residual of the per-body statics they were recovered from).
         """
-        from .reactions import joint_reactions
-
         reactions = self.__dict__.get("_reactions")
-        if reactions is None:
+        if reactions is None:  # computed once per answer (a cache, not part of its value)
             reactions = joint_reactions(self)
             self.__dict__["_reactions"] = reactions
         return reactions.reaction(joint, frame)

@@ -59,6 +59,7 @@ import pinocchio as pin
 from ..errors import UnsupportedError
 from ..model.clearance import ALPHA, BETA, GAMMA
 from .poses import clearance_frames
+from .prepared import linear_setup
 from .small_displacement import tree_joint_basis
 
 SAFETY_FACTOR = 2.0
@@ -142,8 +143,6 @@ class _ExactTerms:
 def estimate_difference(linear, loads, q, points) -> DifferenceEstimate:
     """Estimate the exact - linear difference at ``points`` (:class:`~.outputs.OutputPoint`)
     from the linear equilibrium ``linear`` of ``loads`` at ``q`` (see module docstring)."""
-    from .solve import linear_setup
-
     mechanism = linear.mechanism
     if linear.status == "indeterminate":
         zero = (np.zeros(3), np.zeros(3))  # nothing moves in either model

@@ -60,6 +60,7 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
+from ..equilibrium.cache import SolveCache
 from ..errors import ModelError
 from .iso286 import ToleranceInputError, tolerance_m
 
@@ -380,6 +381,5 @@ def with_deviations(mechanism, deviations: np.ndarray):
     :func:`apply_deviations`); use it to re-close the loops of a manufactured mechanism."""
     changed = copy.copy(mechanism)
     changed.model = apply_deviations(mechanism.model, tuple(mechanism.dimensions), deviations)
-    changed.data = changed.model.createData()
-    changed._solve_state = {}
+    changed.cache = SolveCache(changed.model)
     return changed

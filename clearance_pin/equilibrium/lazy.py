@@ -1,0 +1,92 @@
+"""Containers computed on first access, for the parts of an answer a caller rarely reads.
+
+A planner re-solves thousands of times and reads a few numbers of each answer; every body's motion,
+world placements, contact lists and descriptions of free motions are computed only when read, and
+pickled computed (answers travel to other processes).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import pinocchio as pin
+
+
+class LazyMapping(Mapping):
+    """A read-only mapping computed by ``compute()`` on first access (for answers a caller
+    rarely reads, such as every body's motion after each of thousands of re-solves)."""
+
+    def __init__(self, compute):
+        self._compute = compute
+        self._value: dict | None = None
+
+    def _get(self) -> dict:
+        if self._value is None:
+            self._value = self._compute()
+        return self._value
+
+    def __getitem__(self, key):
+        return self._get()[key]
+
+    def __iter__(self):
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+    def __repr__(self) -> str:
+        return repr(self._get())
+
+    def __reduce__(self):
+        return (dict, (self._get(),))  # pickled computed: results travel to other processes
+
+
+class LazySequence(Sequence):
+    """A read-only sequence computed by ``compute()`` on first access (world placements of every
+    body, descriptions of free motions: answers a planner re-solving thousands of times rarely
+    reads)."""
+
+    def __init__(self, compute):
+        self._compute = compute
+        self._value: tuple | None = None
+
+    def _get(self) -> tuple:
+        if self._value is None:
+            self._value = tuple(self._compute())
+        return self._value
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+    def __getitem__(self, index):
+        return self._get()[index]
+
+    def __eq__(self, other) -> bool:
+        return tuple(self) == tuple(other) if isinstance(other, Sequence) else NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self._get())
+
+    def __add__(self, other):
+        return LazySequence(lambda: (*self, *other))
+
+    def __reduce__(self):
+        return (tuple, (self._get(),))  # pickled computed: results travel to other processes
+
+    def __repr__(self) -> str:
+        return repr(self._get())
+
+
+def placements(twists: np.ndarray, nominal: tuple) -> LazySequence:
+    r"""World placements of every body at a linear solution, :math:`\exp(\xi_b)\, oM_{b0}`,
+    computed on first access."""
+    return LazySequence(
+        lambda: (
+            nominal[0],
+            *(pin.exp6(pin.Motion(twists[i])) * nominal[i] for i in range(1, len(nominal))),
+        )
+    )
+
+
+__all__ = ["LazyMapping", "LazySequence", "placements"]

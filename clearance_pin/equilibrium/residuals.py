@@ -1,0 +1,103 @@
+"""The residuals an answer carries, measured by the library itself, and the test they must pass.
+
+A solver's status is no proof. Every answer is checked on the quantities of its own formulation:
+
+- KKT (dimensionless, on the clearance-scaled problem): ``stationarity``, ``feasibility``,
+  ``complementarity``, ``dual_infeasibility`` (a contact pulling);
+- ``statics``: the virtual-work residual of the loads and the reported contact forces (the
+  contact forces balance the load), relative to the load;
+- ``max_violation_m`` [m] and ``max_violation_rel`` (penetration, absolute and over the play) and
+  ``clearance_m`` [m] (the largest play, the scale of the closure test);
+- small-displacement model: ``closure_conditioning`` (how close the loops are to a toggle
+  position) and ``largest_rotation_rad`` [rad];
+- exact model: ``closure`` (the largest loop equation [m or rad], redundant ones included) and
+  ``held_by_gauge`` (the share of the load that the motions the linear model leaves free carry at
+  the solved pose, held where the linear answer put them; docs/method.md section 4);
+- ``exact="auto"``: ``second_order_m`` [m], the estimated exact - linear difference at the
+  outputs.
+
+A quantity a formulation does not measure is None (not 0): :meth:`Residuals.ok` says which ones
+each test needs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, fields
+
+STATICS_TOLERANCE = 1e-8
+FEASIBILITY_TOLERANCE = 1e-9
+DUAL_TOLERANCE = 1e-8
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """What a verified answer must meet.
+
+    Attributes:
+        feasibility: largest penetration over the play (dimensionless).
+        statics: largest relative virtual-work residual (dimensionless).
+        dual: largest pulling multiplier (dimensionless).
+        closure: largest loop equation over the largest play (exact model; dimensionless).
+    """
+
+    feasibility: float = FEASIBILITY_TOLERANCE
+    statics: float = STATICS_TOLERANCE
+    dual: float = DUAL_TOLERANCE
+    closure: float = FEASIBILITY_TOLERANCE
+
+
+@dataclass(frozen=True)
+class Residuals(Mapping):
+    """Measured residuals of one answer (see the module docstring); read like a mapping of the
+    quantities measured (``residuals["statics"]``, ``dict(residuals)``)."""
+
+    stationarity: float = 0.0
+    dual_infeasibility: float = 0.0
+    statics: float = 0.0
+    max_violation_m: float = 0.0
+    max_violation_rel: float = 0.0
+    clearance_m: float = 0.0
+    feasibility: float | None = None
+    complementarity: float | None = None
+    closure_conditioning: float | None = None
+    largest_rotation_rad: float | None = None
+    closure: float | None = None
+    held_by_gauge: float | None = None
+    second_order_m: float | None = None
+
+    @classmethod
+    def of(cls, values: Mapping[str, float]) -> Residuals:
+        """From a mapping of measured quantities (names of the fields)."""
+        return cls(**{name: float(value) for name, value in values.items()})
+
+    def ok(self, tolerances: Tolerances = Tolerances()) -> bool:
+        """Every contact inside its play, the contact forces balancing the load, no contact
+        pulling, and (exact model) the loops closed to ``tolerances.closure`` of the play."""
+        closed = self.closure is None or self.closure <= tolerances.closure * max(
+            self.clearance_m, 1e-12
+        )
+        return (
+            self.max_violation_rel <= tolerances.feasibility
+            and self.statics <= tolerances.statics
+            and self.dual_infeasibility <= tolerances.dual
+            and closed
+        )
+
+    def _measured(self) -> dict[str, float]:
+        return {f.name: v for f in fields(self) if (v := getattr(self, f.name)) is not None}
+
+    def __getitem__(self, name: str) -> float:
+        value = self._measured().get(name)
+        if value is None:
+            raise KeyError(name)
+        return value
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._measured())
+
+    def __len__(self) -> int:
+        return len(self._measured())
+
+
+__all__ = ["DUAL_TOLERANCE", "FEASIBILITY_TOLERANCE", "STATICS_TOLERANCE", "Residuals", "Tolerances"]
