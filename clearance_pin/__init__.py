@@ -1,12 +1,16 @@
 """clearance_pin: where mechanism parts settle inside their joint clearances, and how far
 dimensional tolerances move a mechanism's output, on Pinocchio models.
 
-Build once, solve many::
+Build once, solve many (run from the repository's root; tests/test_docs_examples.py runs this):
 
-    import clearance_pin
-    mechanism = clearance_pin.load("models/shaft_sphere_cylinder.urdf")
-    equilibrium = mechanism.solve()              # small-displacement model [Y]
-    equilibrium.torsor("I2")                     # (u, v, w, alpha, beta, gamma) [m, rad]
+>>> import clearance_pin
+>>> mechanism = clearance_pin.load("models/younes_sphere_cylinder.urdf")
+>>> equilibrium = mechanism.solve()  # the small-displacement model [Y], loads from the file
+>>> equilibrium.ok, [c.label for c in equilibrium.active_contacts]
+(True, ['I1:ball', 'I2:end+'])
+>>> u, v, w, alpha, beta, gamma = equilibrium.torsor("I2")  # [m, rad], I2's clearance frame
+>>> round(float(v) * 1e6, 3), round(float(w) * 1e6, 3)  # [um]
+(61.343, 61.343)
 """
 
 from .equilibrium.result import Contact, Equilibrium

@@ -253,7 +253,9 @@ class Mechanism:
                 structure first (False: always start from the nominal position).
             backend: ``"auto"`` (Clarabel when installed, else IPOPT), ``"clarabel"`` or
                 ``"ipopt"`` for the small-displacement cone programme; the answer is polished and
-                verified the same way whichever finds it. The exact model always uses IPOPT.
+                verified the same way whichever finds it. The exact model is solved by Newton's
+                method from the linear answer, IPOPT (through CasADi) only when that does not
+                verify.
             outputs: Pinocchio frame names whose world displacement is reported in
                 ``.outputs`` (and compared in ``.difference``), after the loaded points;
                 default: the leaf links (links without a child joint).

@@ -159,7 +159,9 @@ def solve_many(
         progress: progress bar on stderr (None: when stderr is a terminal and more than 100 cases).
 
     Returns:
-        list of :class:`~clearance_pin.equilibrium.result.Equilibrium` (or errors), in case order.
+        :class:`EquilibriumBatch`: a sequence of
+        :class:`~clearance_pin.equilibrium.result.Equilibrium` (or errors, with
+        ``errors="return"``), in case order, with whole-batch arrays (``torsors(joint)``, ``ok``).
     """
     if errors not in ("raise", "return"):
         raise ClearancePinError(f"errors must be 'raise' or 'return', got {errors!r}")

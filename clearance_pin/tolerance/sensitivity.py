@@ -90,6 +90,7 @@ class Output:
         target: frame name (position, orientation) or joint name (joint).
         index: frame id or joint id in the Pinocchio model.
         component: 0, 1, 2 for x, y, z (position, orientation); 0 for a joint.
+        linear: a joint output whose coordinate is a length (a prismatic joint) [m].
     """
 
     name: str
@@ -97,11 +98,12 @@ class Output:
     target: str
     index: int
     component: int = 0
+    linear: bool = False
 
     @property
     def unit(self) -> str:
-        """``"m"`` or ``"rad"``."""
-        return "m" if self.kind == "position" else "rad"
+        """``"m"`` (a position, a prismatic joint's coordinate) or ``"rad"``."""
+        return "m" if self.kind == "position" or self.linear else "rad"
 
 
 def parse_output(model: pin.Model, spec: str) -> Output:
@@ -129,7 +131,8 @@ def parse_output(model: pin.Model, spec: str) -> Output:
                 f"output {spec!r}: joint {target!r} has {model.joints[joint_id].nv}"
                 " degrees of freedom; only 1-DOF joint coordinates are outputs"
             )
-        return Output(name.strip() or target, "joint", target, joint_id, 0)
+        prismatic = model.joints[joint_id].shortname().startswith("JointModelP")
+        return Output(name.strip() or target, "joint", target, joint_id, 0, prismatic)
     frames = sorted({f.name for f in model.frames if f.type == pin.FrameType.BODY})
     raise ClearancePinError(
         f"output {spec!r}: expected FRAME.x|y|z|rx|ry|rz or a joint name; the "
