@@ -72,7 +72,7 @@ def summary(equilibrium, seconds: float) -> dict:
         "contacts": [c.label for c in equilibrium.active_contacts],
         "solve_time_s": seconds,
         "ok": equilibrium.ok,
-        "residuals": equilibrium.residuals,
+        "residuals": equilibrium.residuals.to_dict(),
     }
 
 

@@ -84,6 +84,10 @@ class Residuals(Mapping):
             and closed
         )
 
+    def to_dict(self) -> dict[str, float]:
+        """The quantities measured, JSON-ready."""
+        return self._measured()
+
     def _measured(self) -> dict[str, float]:
         return {f.name: v for f in fields(self) if (v := getattr(self, f.name)) is not None}
 

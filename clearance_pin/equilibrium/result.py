@@ -252,7 +252,7 @@ class Equilibrium:
             "free_motions": list(self.free_motions),
             "solver_status": self.solver_status,
             "iterations": self.iterations,
-            "residuals": dict(self.residuals),
+            "residuals": self.residuals.to_dict(),
             "polished": self.polished,
             "build_time_s": self.build_time,
             "solve_time_s": self.solve_time,
