@@ -1,11 +1,21 @@
 """The ``clearance-pin`` command.
 
     clearance-pin solve MODEL [--exact] [--json] [--check] [--gravity on|off] [--package-dir DIR]
-    clearance-pin validate [--json FILE] [--check]
     clearance-pin tolerance MODEL ...      (see ``clearance-pin tolerance --help``)
 
-Errors of the model or the load are printed as one line naming the file, the element and the
-problem, with exit status 2; an equilibrium that does not exist (unbounded load) exits with 3.
+The paper's validation cases are a script of the source tree, not a sub-command:
+``python validation/younes2013.py [--json FILE] [--check]``.
+
+Exit status:
+
+- 0: a verified equilibrium (and, with ``--check``, a check within its tolerances); the
+  tolerance propagation done;
+- 1: the answer's residuals or the coal check out of tolerance (the result is printed, then one
+  line on standard error saying which);
+- 2: a bad model, load or option: one line naming the file, the element and the problem; bad
+  command-line arguments also exit with 2 (argparse's usage message);
+- 3: no equilibrium: the load drives a motion that nothing blocks (the line names the motion);
+- 4: the solver did not reach a verified answer (the line gives its status and residuals).
 """
 
 from __future__ import annotations
@@ -15,7 +25,10 @@ import json
 import sys
 from pathlib import Path
 
-from .errors import ClearancePinError, ModelError, UnboundedLoadError
+from .errors import ClearancePinError, SolverError, UnboundedLoadError
+
+OK, OUT_OF_TOLERANCE, BAD_INPUT, NO_EQUILIBRIUM, SOLVER_FAILED = range(5)
+"""The exit statuses (module docstring)."""
 
 
 def _solve(args: argparse.Namespace) -> int:
@@ -46,23 +59,13 @@ def _solve(args: argparse.Namespace) -> int:
                     "(the small-displacement model's own second-order error shows here; "
                     "solve with --exact for a pose that sits on the real boundaries)"
                 )
-    return 0 if equilibrium.ok and (report is None or report.ok) else 1
-
-
-def _validate(args: argparse.Namespace) -> int:
-    script = Path(__file__).resolve().parent.parent / "validation" / "younes2013.py"
-    if not script.exists():
-        print(
-            "clearance-pin validate: the validation scripts ship with the source tree "
-            "(validation/younes2013.py), not with the installed package",
-            file=sys.stderr,
-        )
-        return 2
-    import runpy
-
-    namespace = runpy.run_path(str(script))
-    argv = (["--json", str(args.json)] if args.json else []) + (["--check"] if args.check else [])
-    return namespace["main"](argv)
+    problems = [] if equilibrium.ok else ["residuals out of tolerance"]
+    if report is not None and not report.ok:
+        problems.append(f"coal check out of tolerance ({len(report.failures)} readings)")
+    if problems:
+        _say(args, "; ".join(problems))
+        return OUT_OF_TOLERANCE
+    return OK
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -84,10 +87,6 @@ def build_parser() -> argparse.ArgumentParser:
         "repeatable; ROS_PACKAGE_PATH is searched too); only --check reads meshes",
     )
     solve.set_defaults(run=_solve)
-    validate = commands.add_parser("validate", help="the paper's cases, published vs computed")
-    validate.add_argument("--json", type=Path, help="write the results to this file")
-    validate.add_argument("--check", action="store_true", help="add the coal check")
-    validate.set_defaults(run=_validate)
     try:
         from .tolerance import command as tolerance_command
     except ImportError:
@@ -99,17 +98,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _say(args: argparse.Namespace, text: str) -> None:
+    """One line on standard error, ``clearance-pin: MODEL: text`` (the model named once)."""
+    line = " ".join(str(text).splitlines())
+    model = getattr(args, "model", None)
+    if model is not None and not line.startswith(str(model)):
+        line = f"{model}: {line}"
+    print(f"clearance-pin: {line}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``clearance-pin``."""
+    """Entry point of ``clearance-pin``; returns the exit status (module docstring)."""
     args = build_parser().parse_args(argv)
     try:
         return args.run(args)
     except UnboundedLoadError as exc:
-        print(f"clearance-pin: {exc}", file=sys.stderr)
-        return 3
-    except (ModelError, ClearancePinError) as exc:
-        print(f"clearance-pin: {exc}", file=sys.stderr)
-        return 2
+        _say(args, exc)
+        return NO_EQUILIBRIUM
+    except SolverError as exc:
+        _say(args, f"the solver did not reach a verified answer: {exc}")
+        return SOLVER_FAILED
+    except ClearancePinError as exc:
+        _say(args, exc)
+        return BAD_INPUT
 
 
 if __name__ == "__main__":

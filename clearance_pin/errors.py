@@ -29,6 +29,9 @@ class ModelError(ClearancePinError, ValueError):
         self.problem = problem
         super().__init__(f"{source}: {element}: {problem}")
 
+    def __reduce__(self):
+        return (type(self), (self.source, self.element, self.problem))
+
 
 class ArgumentError(ClearancePinError, ValueError):
     """An argument of a library call has the wrong kind or value.
@@ -57,6 +60,44 @@ def _short_repr(value, limit: int = 80) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+class NotFoundError(ClearancePinError, KeyError):
+    """A name that is looked up does not exist (a joint, frame, link, output, dimension...).
+
+    Also a ``KeyError``, so that ``except KeyError`` around a look-up keeps working.
+
+    Attributes:
+        kind: what was looked up, e.g. ``"joint"``, ``"frame"``, ``"output"``, ``"dimension"``.
+        name: the name given.
+        valid: the valid names (a tuple, in the order they are listed).
+        where: where the look-up was made (the model file, the argument, the output spec), or
+            None.
+        hint: what else would be accepted, when the valid names do not say it all, or None.
+    """
+
+    def __init__(self, kind: str, name, valid, where: str | None = None, hint: str | None = None):
+        self.kind = kind
+        self.name = name
+        self.valid = tuple(valid)
+        self.where = where
+        self.hint = hint
+        listed = ", ".join(map(str, self.valid)) if self.valid else "(none)"
+        prefix = f"{where}: " if where else ""
+        detail = f"; {hint}" if hint else ""
+        super().__init__(
+            f"{prefix}unknown {kind} {_short_repr(name)}; the {_plural(kind)} are: {listed}{detail}"
+        )
+
+    def __str__(self) -> str:  # KeyError's own str() would quote the message
+        return str(self.args[0])
+
+    def __reduce__(self):
+        return (type(self), (self.kind, self.name, self.valid, self.where, self.hint))
+
+
+def _plural(kind: str) -> str:
+    return kind if kind.endswith("s") else kind + "s"
+
+
 class LoadError(ClearancePinError, ValueError):
     """A load is invalid (unknown link, non-finite value, wrong shape)."""
 
@@ -64,6 +105,9 @@ class LoadError(ClearancePinError, ValueError):
         self.load = load
         self.problem = problem
         super().__init__(f"load {load}: {problem}")
+
+    def __reduce__(self):
+        return (type(self), (self.load, self.problem))
 
 
 class UnboundedLoadError(ClearancePinError):
@@ -84,20 +128,36 @@ class UnboundedLoadError(ClearancePinError):
             "missing joint, or remove that load component."
         )
 
+    def __reduce__(self):
+        return (type(self), (self.motions, self.fraction))
+
 
 class SolverError(ClearancePinError):
     """The optimiser failed, or its answer failed our own checks.
 
     Attributes:
         status: the solver's status string.
-        residuals: dict of the residuals we measured (feasibility, stationarity, ...).
+        residuals: dict of the residuals we measured (feasibility [m], stationarity, ...).
+        answer: the unverified answer (the :class:`~clearance_pin.Equilibrium` that failed
+            verification), to inspect or use at one's own risk; None when there is none.
     """
 
-    def __init__(self, message: str, status: str, residuals: dict[str, float] | None = None):
+    def __init__(
+        self,
+        message: str,
+        status: str,
+        residuals: dict[str, float] | None = None,
+        answer=None,
+    ):
+        self.message = message
         self.status = status
         self.residuals = dict(residuals or {})
+        self.answer = answer
         detail = ", ".join(f"{k}={v:.3g}" for k, v in self.residuals.items())
         super().__init__(f"{message} (status: {status}{'; ' + detail if detail else ''})")
+
+    def __reduce__(self):
+        return (type(self), (self.message, self.status, self.residuals, self.answer))
 
 
 class UnsupportedError(ClearancePinError, NotImplementedError):

@@ -41,6 +41,7 @@ def _module(name: str):
 def test_work_precision_json_shape(tmp_path):
     """One paper case, 4 loads: every method of ours and every peer reports a positive median time,
     a finite error and its peer flag under cases/<id>/<method>; the ratio table has every pair."""
+    pytest.importorskip("matplotlib")  # --plots
     work_precision = _module("work_precision")
     out = tmp_path / "wp.json"
     code = _run_script(  # in its own process: the benchmarks set process-wide state

@@ -167,6 +167,7 @@ def test_sweep_budget_and_plot(tmp_path):
     assert np.all(budget.clearance < 0) and np.all(np.abs(budget.clearance) < 400e-6)
     assert 140e-6 < -budget.clearance[0] <= 150e-6
     assert np.allclose(budget.total_worst, np.abs(budget.clearance) + result.worst[:, 0])
+    pytest.importorskip("matplotlib")  # the plot (the extra clearance_pin[plot])
     path = tmp_path / "bands.png"
     plot_sweep(result, path, budget, title="test")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -183,6 +184,7 @@ def test_plot_without_matplotlib_names_the_extra(tmp_path, monkeypatch):
 
 def test_command_writes_table_plot_and_json(tmp_path, capsys):
     """clearance-pin tolerance prints the table and writes the plot and the JSON (SI)."""
+    pytest.importorskip("matplotlib")  # --plot needs the extra clearance_pin[plot]
     png, out = tmp_path / "b.png", tmp_path / "b.json"
     status = cli_main(
         [

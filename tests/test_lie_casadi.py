@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from clearance_pin.errors import ArgumentError
 from clearance_pin.kinematics import lie_casadi as lie
 
 TOL = 1e-12
@@ -297,7 +298,7 @@ def test_se2_exp(omega):
 
 def test_skew_vee_and_input_checks():
     """skew(w) u = w x u; vee(skew(w)) = w; numpy input gives SX; bad shapes raise ValueError,
-    MX raises TypeError."""
+    MX raises ArgumentError (the library's error for a bad argument, also a ValueError)."""
     w, u = np.array([0.3, -1.0, 2.0]), np.array([1.5, 0.2, -0.7])
     S = lie.skew(w)
     assert isinstance(S, ca.SX) and S.shape == (3, 3)
@@ -310,5 +311,5 @@ def test_skew_vee_and_input_checks():
         lie.se3_exp(np.zeros(3))
     with pytest.raises(ValueError):
         lie.compose((np.eye(3),), (np.eye(3), np.zeros(3)))
-    with pytest.raises(TypeError):
+    with pytest.raises(ArgumentError, match="casadi.Function"):
         lie.skew(ca.MX.sym("m", 3))

@@ -38,6 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ArgumentError
+
 ROUNDING = 16.0 * np.finfo(float).eps
 """Relative rounding of world coordinates allowed for (16 machine epsilons)."""
 
@@ -59,7 +61,7 @@ class Tolerance:
         for name in ("faceting", "solver", "coal", "rim"):
             value = getattr(self, name)
             if not np.isfinite(value) or value < 0.0:
-                raise ValueError(f"tolerance term {name} must be finite and >= 0 [m], got {value}")
+                raise ArgumentError(f"Tolerance({name})", "a finite length >= 0 [m]", value)
 
     @property
     def total(self) -> float:

@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from ..errors import ClearancePinError
+from ..errors import ArgumentError, ClearancePinError
 from .accuracy import Tolerance, coal_accuracy, solver_accuracy
 from .geometry import Region, point_shape, shape_cache
 from .measure import Probe
@@ -140,14 +140,14 @@ def _validate(equilibrium, journal_radius, facets, mesh_faceting, gjk_tolerance)
             "check the result of Mechanism.solve"
         )
     if not isinstance(facets, int) or facets < 3:
-        raise ClearancePinError(f"facets must be an integer >= 3, got {facets!r}")
+        raise ArgumentError("facets", "an integer >= 3", facets)
     for name, value in (("journal_radius", journal_radius), ("mesh_faceting", mesh_faceting)):
         if value is not None and not (np.isfinite(value) and value >= 0.0):
-            raise ClearancePinError(f"{name} must be a finite length >= 0 [m], got {value!r}")
+            raise ArgumentError(name, "None or a finite length >= 0 [m]", value)
     if journal_radius is not None and journal_radius <= 0.0:
-        raise ClearancePinError(f"journal_radius must be > 0 [m], got {journal_radius!r}")
+        raise ArgumentError("journal_radius", "None or a length > 0 [m]", journal_radius)
     if not (0.0 < gjk_tolerance <= 1e-3):
-        raise ClearancePinError(f"gjk_tolerance must be in (0, 1e-3], got {gjk_tolerance!r}")
+        raise ArgumentError("gjk_tolerance", "a number in (0, 1e-3]", gjk_tolerance)
 
 
 __all__ = ["check_equilibrium", "GJK_TOLERANCE", "FACETS"]

@@ -34,6 +34,8 @@ import math
 
 import numpy as np
 
+from ..errors import ArgumentError, UnsupportedError
+
 WINDOW = 2.0
 """Half-extent of a region's solid along its unbounded directions, in clearances."""
 
@@ -86,7 +88,7 @@ class Region:
             sides[bounded[0]] = 2.0 * bound
             self.kind, self.shape, self.rotation = "box", coal.Box(*sides), np.eye(3)
         else:
-            raise ValueError(
+            raise UnsupportedError(
                 f"contact point {point.name!r}: no solid for components {point.components} "
                 f"with shape {point.shape!r}"
             )
@@ -115,7 +117,7 @@ def faceting_bound(radius: float, facets: int) -> float:
     r"""Largest excess [m] of the distance to ``facets`` facets tangent to a circle of ``radius``
     [m] over the distance to the circle: :math:`R\,(1/\cos(\pi/N) - 1)`."""
     if facets < 3:
-        raise ValueError(f"a faceted bore needs at least 3 facets, got {facets}")
+        raise ArgumentError("facets", "a faceted bore of at least 3 facets", facets)
     return radius * (1.0 / math.cos(math.pi / facets) - 1.0)
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..errors import ArgumentError
 from .accuracy import Tolerance
 
 UNITS = {1.0: "m", 1e3: "mm", 1e6: "um", 1e9: "nm"}
@@ -240,8 +241,11 @@ class CheckReport:
         "surfaces": {same keys}}}, "off_boundary_<u>", "failures", "check_time_s", ...}``."""
         if unit is None:
             if length not in UNITS:
-                raise ValueError(
-                    f"name the unit of length={length!r} (unit=...); known: {sorted(UNITS)}"
+                raise ArgumentError(
+                    "length",
+                    f"one of {sorted(UNITS)}, or unit=... naming the unit",
+                    length,
+                    "name the unit of this length (unit=...)",
                 )
             unit = UNITS[length]
         off, where = self.off_boundary

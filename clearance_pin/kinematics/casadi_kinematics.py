@@ -36,7 +36,7 @@ import casadi as ca
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ModelError
+from ..errors import ArgumentError, ModelError
 from .lie_casadi import (
     Placement,
     as_placement,
@@ -246,7 +246,9 @@ class CasadiKinematics:
         deltas = dict(deltas or {})
         for k in deltas:
             if not isinstance(k, (int, np.integer)) or not 1 <= k < self.njoints:
-                raise ValueError(f"delta key {k!r} is not a joint index in 1..{self.njoints - 1}")
+                raise ArgumentError(
+                    f"deltas[{k!r}]", f"a key that is a joint index in 1..{self.njoints - 1}", k
+                )
         oMi: list[Placement] = [identity()]
         for spec in self.joints:
             qj = q[spec.idx_q : spec.idx_q + spec.nq]
@@ -260,7 +262,7 @@ class CasadiKinematics:
     def frame_placement(self, joint_placements: Sequence[Placement], frame_id: int) -> Placement:
         """``oMf = oMi[frame.parentJoint] * frame.placement`` for one frame."""
         if not 0 <= frame_id < len(self.frames):
-            raise ValueError(f"frame id {frame_id} out of range 0..{len(self.frames) - 1}")
+            raise ArgumentError("frame_id", f"a frame index in 0..{len(self.frames) - 1}", frame_id)
         parent, placement = self.frames[frame_id]
         return compose(joint_placements[parent], placement)
 

@@ -25,6 +25,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from ..errors import ArgumentError
+
 Placement = tuple[ca.SX, ca.SX]
 
 #: Threshold on theta^2 [rad^2] below which the series are used. The first neglected
@@ -44,12 +46,16 @@ def as_sx(x: Any, shape: tuple[int, int] | None = None) -> ca.SX:
     """Convert ``x`` (SX, DM, numpy array, list, float) to ``SX``.
 
     A 1-D input of length n becomes an n x 1 column. If ``shape`` is given the result
-    must have exactly that shape (a ``ValueError`` is raised otherwise).
+    must have exactly that shape (an :class:`~clearance_pin.ArgumentError`, also a
+    ``ValueError``, is raised otherwise).
     """
     if isinstance(x, ca.MX):
-        raise TypeError(
+        raise ArgumentError(
+            "x",
+            "a casadi.SX, DM, numpy array, list or float",
+            x,
             "lie_casadi works on casadi.SX; wrap the SX expression in a casadi.Function "
-            "to evaluate it on MX"
+            "to evaluate it on MX",
         )
     if isinstance(x, ca.SX):
         out = x
@@ -62,10 +68,12 @@ def as_sx(x: Any, shape: tuple[int, int] | None = None) -> ca.SX:
         elif arr.ndim == 1:
             arr = arr.reshape(-1, 1)
         elif arr.ndim != 2:
-            raise ValueError(f"expected a scalar, vector or matrix, got shape {arr.shape}")
+            raise ArgumentError(
+                "x", "a scalar, vector or matrix", x, f"an array of shape {arr.shape}"
+            )
         out = ca.SX(ca.DM(arr))
     if shape is not None and out.shape != shape:
-        raise ValueError(f"expected shape {shape}, got {out.shape}")
+        raise ArgumentError("x", f"shape {shape}", x, f"shape {out.shape}")
     return out
 
 
@@ -76,7 +84,7 @@ def as_placement(M: Any) -> Placement:
     try:
         R, p = M
     except (TypeError, ValueError) as exc:
-        raise ValueError("a placement must be a pin.SE3 or an (R, p) pair") from exc
+        raise ArgumentError("M", "a placement: a pin.SE3 or an (R, p) pair", M) from exc
     return as_sx(R, (3, 3)), as_sx(p, (3, 1))
 
 

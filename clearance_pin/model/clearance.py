@@ -33,6 +33,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..errors import ArgumentError, NotFoundError
+
 U, V, W, ALPHA, BETA, GAMMA = range(6)
 COMPONENT_NAMES = ("u", "v", "w", "alpha", "beta", "gamma")
 COMPONENT_MEANING = (
@@ -116,13 +118,17 @@ class Clearance:
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
-            raise ValueError(f"unknown clearance kind {self.kind!r}; expected one of {KINDS}")
+            raise NotFoundError("clearance kind", self.kind, KINDS, where="Clearance(kind)")
         for name in ("radial", "length", "axial", "width", "height"):
             _check_nonnegative(name, getattr(self, name))
         if self.play_z is not None:
             _check_nonnegative("play_z", self.play_z)
         if self.kind in ("cylindrical", "revolute", "prismatic") and not self.length > 0.0:
-            raise ValueError(f"a {self.kind} clearance needs a length > 0 [m], got {self.length}")
+            raise ArgumentError(
+                f"Clearance({self.kind!r}, length)",
+                "a journal or block length > 0 [m]",
+                self.length,
+            )
         object.__setattr__(self, "contacts", tuple(self._contact_points()))
 
     @property
@@ -207,4 +213,4 @@ def _sign(value: float) -> str:
 
 def _check_nonnegative(name: str, value: float) -> None:
     if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0.0:
-        raise ValueError(f"{name} must be a finite number >= 0 [m], got {value!r}")
+        raise ArgumentError(f"Clearance({name})", "a finite number >= 0 [m]", value)

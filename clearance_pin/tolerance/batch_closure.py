@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ClearancePinError, SolverError
+from ..errors import ArgumentError, SolverError
 from ..kinematics.closure import (
     _weights,
     closure_jacobian,
@@ -339,8 +339,11 @@ class BatchClosure:
         """
         dd = np.asarray(deviations, dtype=float)
         if dd.ndim != 2 or dd.shape[1] != len(self.dimensions):
-            raise ClearancePinError(
-                f"deviations must have shape (N, {len(self.dimensions)}), got {dd.shape}"
+            raise ArgumentError(
+                "deviations",
+                f"an array of shape (N, {len(self.dimensions)}) [m or rad]",
+                deviations,
+                f"shape {dd.shape}",
             )
         out = np.empty((dd.shape[0], len(self.outputs)))
         for start in range(0, dd.shape[0], chunk):

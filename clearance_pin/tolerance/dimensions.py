@@ -61,7 +61,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..equilibrium.cache import SolveCache
-from ..errors import ModelError
+from ..errors import ArgumentError, ModelError
 from .iso286 import ToleranceInputError, tolerance_m
 
 __all__ = [
@@ -109,11 +109,20 @@ class Dimension:
 
     def __post_init__(self) -> None:
         if self.kind not in ("length", "angle"):
-            raise ValueError(f"kind must be 'length' or 'angle', got {self.kind!r}")
+            raise ArgumentError(f"Dimension {self.name!r}: kind", "'length' or 'angle'", self.kind)
         if not (math.isfinite(self.tolerance) and self.tolerance >= 0.0):
-            raise ValueError(f"tolerance must be finite and >= 0, got {self.tolerance!r}")
+            raise ArgumentError(
+                f"Dimension {self.name!r}: tolerance",
+                "a finite number >= 0 [m or rad]",
+                self.tolerance,
+            )
         if abs(np.linalg.norm(self.axis_in_parent_joint) - 1.0) > 1e-9:
-            raise ValueError("axis_in_parent_joint must be a unit vector")
+            raise ArgumentError(
+                f"Dimension {self.name!r}: axis_in_parent_joint",
+                "a unit vector",
+                self.axis_in_parent_joint,
+                f"norm {np.linalg.norm(self.axis_in_parent_joint):.6g}",
+            )
 
     @property
     def half_tolerance(self) -> float:
@@ -362,7 +371,12 @@ def apply_deviations(
     """
     deviations = np.asarray(deviations, dtype=float)
     if deviations.shape != (len(dimensions),):
-        raise ValueError(f"deviations must have shape ({len(dimensions)},), got {deviations.shape}")
+        raise ArgumentError(
+            "deviations",
+            f"one deviation per dimension [m or rad], shape ({len(dimensions)},)",
+            deviations,
+            f"shape {deviations.shape}",
+        )
     perturbed = model.copy()
     for dimension, dd in zip(dimensions, deviations):
         motion = dimension.displacement(float(dd))

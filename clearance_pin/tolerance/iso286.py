@@ -23,6 +23,8 @@ import math
 from bisect import bisect_left
 from typing import Any
 
+from ..errors import ClearancePinError
+
 __all__ = [
     "GRADES",
     "ISO286_RANGES_MM",
@@ -39,8 +41,10 @@ __all__ = [
 # --------------------------------------------------------------------------------------------
 
 
-class ToleranceInputError(ValueError):
+class ToleranceInputError(ClearancePinError, ValueError):
     """An input of the tolerance arithmetic is outside its domain.
+
+    A :class:`~clearance_pin.ClearancePinError`, and a ``ValueError`` as before.
 
     Attributes:
         value: The offending input, as given.

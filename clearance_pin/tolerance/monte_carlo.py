@@ -27,7 +27,7 @@ from typing import Literal
 
 import numpy as np
 
-from ..errors import ClearancePinError
+from ..errors import ArgumentError
 from ..progress import Progress
 from .batch_closure import BatchClosure
 from .sensitivity import Output
@@ -106,7 +106,7 @@ def monte_carlo(
     started = time.perf_counter()
     closure = closure or BatchClosure(mechanism, outputs, q)
     if isinstance(samples, bool) or int(samples) != samples or samples < 2:
-        raise ClearancePinError(f"samples must be an integer >= 2, got {samples!r}")
+        raise ArgumentError("samples", "an integer >= 2", samples)
     rng = np.random.default_rng(seed)
     half = np.array([d.half_tolerance for d in closure.dimensions])
     stats = _Moments(len(closure.outputs), keep)

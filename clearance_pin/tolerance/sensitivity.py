@@ -49,7 +49,13 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ClearancePinError, ConditioningWarning, ModelError
+from ..errors import (
+    ArgumentError,
+    ClearancePinError,
+    ConditioningWarning,
+    ModelError,
+    NotFoundError,
+)
 from ..kinematics.closure import (
     closure_jacobian,
     closure_residual,
@@ -113,7 +119,9 @@ def parse_output(model: pin.Model, spec: str) -> Output:
     ``"pin_A"`` (the coordinate of a 1-DOF joint).
 
     Raises:
-        ClearancePinError: unknown frame, joint or component (the message lists the choices).
+        NotFoundError: unknown frame or joint, or a component other than x, y, z, rx, ry, rz
+            (the message lists the frames and the joints).
+        ArgumentError: a joint with more than one degree of freedom.
     """
     name, _, target = spec.rpartition("=")
     target = target.strip()
@@ -127,17 +135,30 @@ def parse_output(model: pin.Model, spec: str) -> Output:
     if model.existJointName(target) and model.getJointId(target) > 0:
         joint_id = model.getJointId(target)
         if model.joints[joint_id].nv != 1:
-            raise ClearancePinError(
-                f"output {spec!r}: joint {target!r} has {model.joints[joint_id].nv}"
-                " degrees of freedom; only 1-DOF joint coordinates are outputs"
+            raise ArgumentError(
+                f"output {spec!r}",
+                "a FRAME.x|y|z|rx|ry|rz or a 1-DOF joint (only their coordinates are outputs)",
+                target,
+                f"joint {target!r} has {model.joints[joint_id].nv} degrees of freedom",
             )
         prismatic = model.joints[joint_id].shortname().startswith("JointModelP")
         return Output(name.strip() or target, "joint", target, joint_id, 0, prismatic)
+    raise _unknown_output(model, spec, target, match)
+
+
+def _unknown_output(model: pin.Model, spec: str, target: str, match) -> NotFoundError:
+    """The error for an output spec that names no frame and no joint: the frame if the spec
+    reads FRAME.component, else the joint, listing the frames and the joints."""
     frames = sorted({f.name for f in model.frames if f.type == pin.FrameType.BODY})
-    raise ClearancePinError(
-        f"output {spec!r}: expected FRAME.x|y|z|rx|ry|rz or a joint name; the "
-        f"frames are {', '.join(frames)}; the joints are "
-        f"{', '.join(model.names[1:])}"
+    joints = list(model.names[1:])
+    where = f"output {spec!r}"
+    form = "an output is FRAME.x|y|z|rx|ry|rz or a 1-DOF joint name"
+    if match:
+        return NotFoundError(
+            "frame", match.group(1), frames, where, f"{form}; the joints are: {', '.join(joints)}"
+        )
+    return NotFoundError(
+        "joint", target, joints, where, f"{form}; the frames are: {', '.join(frames)}"
     )
 
 
@@ -188,9 +209,7 @@ class Sensitivities:
         for i, output in enumerate(self.outputs):
             if output.name == name:
                 return self.matrix[i]
-        raise ClearancePinError(
-            f"no output {name!r}; the outputs are {', '.join(o.name for o in self.outputs)}"
-        )
+        raise NotFoundError("output", name, [o.name for o in self.outputs], "Sensitivities.row")
 
 
 def dimension_columns(

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ArgumentError, ClearancePinError
+from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.clearance import ALPHA, U
 from ..model.joints import MOTION_COMPONENT_BY_PIN_JOINT
 from ..model.plausibility import LIMIT_SLACK, limits_of
@@ -135,9 +135,7 @@ class Sweep:
         for i, output in enumerate(self.outputs):
             if output.name == name:
                 return i
-        raise ClearancePinError(
-            f"no output {name!r}; the outputs are {', '.join(o.name for o in self.outputs)}"
-        )
+        raise NotFoundError("output", name, [o.name for o in self.outputs], "Sweep.index")
 
 
 def driven_joint(mechanism, joint: str | None = None) -> int:
@@ -145,9 +143,7 @@ def driven_joint(mechanism, joint: str | None = None) -> int:
     model = mechanism.model
     if joint is not None:
         if not model.existJointName(joint) or model.getJointId(joint) == 0:
-            raise ClearancePinError(
-                f"unknown joint {joint!r}; the joints are {', '.join(model.names[1:])}"
-            )
+            raise NotFoundError("joint", joint, model.names[1:], mechanism.source)
         joint_id = model.getJointId(joint)
     else:
         driven = [j.joint_id for j in mechanism.tree_joints if j.driven]
@@ -157,7 +153,12 @@ def driven_joint(mechanism, joint: str | None = None) -> int:
             )
         joint_id = driven[0]
     if model.joints[joint_id].nv != 1:
-        raise ClearancePinError(f"joint {model.names[joint_id]!r} is not a 1-DOF joint")
+        raise ArgumentError(
+            "joint",
+            "a 1-DOF joint (revolute or prismatic)",
+            model.names[joint_id],
+            f"{model.joints[joint_id].nv} degrees of freedom",
+        )
     return joint_id
 
 
@@ -260,7 +261,8 @@ def sweep(
 
     Raises:
         ArgumentError: ``positions < 1``, a range missing (prismatic joint) or not finite, or
-            one that takes the joint out of its URDF limits.
+            one that takes the joint out of its URDF limits; a joint of more than 1 DOF.
+        NotFoundError: ``joint`` or an output names no joint or frame (the message lists them).
     """
     started = time.perf_counter()
     model = mechanism.model
@@ -412,7 +414,7 @@ def cycle_maximum(
         ``(maximum band [output units], phi [rad or m])``.
     """
     if band not in ("worst", "rss"):
-        raise ClearancePinError(f"band must be 'worst' or 'rss', got {band!r}")
+        raise ArgumentError("band", "'worst' or 'rss'", band)
     if fine is None:
         fine = sweep(
             mechanism,

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..errors import ArgumentError
+
 _SNAP = 1e-14  # constant matrix entries below this are exact zeros (rpy round-off)
 
 # --------------------------------------------------------------------------------------------
@@ -235,7 +237,9 @@ class _Tape:
         for x in inputs:
             if isinstance(x, _Var):
                 if x.tape is not self:
-                    raise ValueError("operands from two tapes")
+                    raise ArgumentError(
+                        "operand", "a value recorded on this tape", x, "it is from another tape"
+                    )
                 args.append(x.id)
             else:
                 args.append(float(x))

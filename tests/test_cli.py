@@ -1,0 +1,278 @@
+"""The ``clearance-pin`` command: every sub-command and every documented exit status.
+
+The exit statuses (README, "Command line"): 0 a verified equilibrium, 1 residuals or check out of
+tolerance, 2 a bad model, load or option (one line naming the file, the element and the problem)
+and bad command-line arguments (argparse), 3 no equilibrium (unbounded load), 4 the solver did not
+reach a verified answer. The command runs in-process through ``clearance_pin.cli.main``; one test
+runs the installed entry point in a subprocess.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import MODELS
+
+import clearance_pin as cp
+from clearance_pin.cli import main
+from clearance_pin.errors import SolverError
+from clearance_pin.mechanism import Mechanism
+
+PENDULUM = MODELS / "double_pendulum.urdf"
+SHOULDER_DRIVE = ' driven="true" q="0.5235987755982988"'
+
+
+def _run(capsys, *argv: str) -> tuple[int, str, str]:
+    """(exit status, stdout, stderr) of ``clearance-pin ARGV``."""
+    status = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def _one_line(err: str) -> str:
+    """The single line the command writes on stderr for a refused input."""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("clearance-pin: "), err
+    return lines[0]
+
+
+def _pendulum_variant(tmp_path: Path, name: str, old: str, new: str) -> Path:
+    """models/double_pendulum.urdf with one piece of text replaced, written to ``tmp_path``."""
+    text = PENDULUM.read_text()
+    assert old in text
+    path = tmp_path / name
+    path.write_text(text.replace(old, new))
+    return path
+
+
+# -- solve ----------------------------------------------------------------------------------------
+def test_solve_prints_the_table_and_exits_0(capsys):
+    status, out, err = _run(capsys, "solve", MODELS / "four_bar.urdf")
+    assert status == 0 and err == ""
+    assert f"from {MODELS / 'four_bar.urdf'}" in out.splitlines()[0]
+    for joint in cp.load(MODELS / "four_bar.urdf").joints:
+        assert joint in out
+
+
+def test_solve_json_is_the_library_answer(capsys):
+    """--exact --json prints the exact answer and its linear seed, as Mechanism.solve gives them;
+    the contacts are the README's (ball, and the journal's right end on the bore)."""
+    path = MODELS / "younes_sphere_cylinder.urdf"
+    status, out, err = _run(capsys, "solve", path, "--exact", "--json")
+    assert status == 0 and err == ""
+    document = json.loads(out)
+    assert document["model"] == str(path)
+    exact = cp.load(path).solve(exact=True)
+    for key, answer in (("equilibrium", exact), ("linear", exact.linear)):
+        printed = document[key]
+        assert printed["formulation"] == answer.formulation and printed["ok"] is True
+        for joint, torsor in printed["torsors"].items():
+            np.testing.assert_allclose(torsor, answer.torsor(joint), rtol=0, atol=1e-15)
+    active = sorted(
+        f"{c['joint']}:{c['point']}" for c in document["linear"]["contacts"] if c["active"]
+    )
+    assert active == ["I1:ball", "I2:end+"]
+    assert document["equilibrium"]["formulation"] == "exact"
+
+
+def test_gravity_option_overrides_the_model(capsys):
+    """The 6R arm's model switches gravity on; --gravity off solves without the weights, as
+    Mechanism.solve(gravity=False) does, and --gravity on as the model does."""
+    path = MODELS / "arm_6r.urdf"
+    mechanism = cp.load(path)
+    answers = {"on": mechanism.solve(), "off": mechanism.solve(gravity=False)}
+    printed = {}
+    for setting, answer in answers.items():
+        status, out, _ = _run(capsys, "solve", path, "--json", "--gravity", setting)
+        assert status == 0
+        printed[setting] = json.loads(out)["equilibrium"]["torsors"]
+        for joint, torsor in printed[setting].items():
+            np.testing.assert_allclose(torsor, answer.torsor(joint), rtol=0, atol=1e-15)
+    moved = max(
+        np.abs(np.subtract(printed["on"][j], printed["off"][j])).max() for j in printed["on"]
+    )
+    assert moved > 1e-7  # the weights move the parts in their play
+
+
+def test_check_of_the_linear_pose_exits_1_and_of_the_exact_one_0(capsys):
+    """The small-displacement pose of a rotating mechanism is off the real boundaries at second
+    order (README): --check fails there (exit 1, the table then one line saying so) and passes
+    on the exact pose."""
+    path = MODELS / "four_bar.urdf"
+    status, out, err = _run(capsys, "solve", path, "--check")
+    assert status == 1
+    assert "FAIL" in out and "solve with --exact" in out
+    line = _one_line(err)
+    assert str(path) in line and "coal check out of tolerance" in line
+    status, out, err = _run(capsys, "solve", path, "--check", "--json")
+    assert status == 1 and "coal check out of tolerance" in _one_line(err)
+    check = json.loads(out)["check"]
+    assert check["ok"] is False and check["failures"]
+    status, out, err = _run(capsys, "solve", path, "--check", "--exact")
+    assert status == 0 and err == ""
+    assert "FAIL" not in out and "solve with --exact" not in out
+    assert out.index("equilibrium (linear)") < out.index("equilibrium (exact)")  # seed, answer
+
+
+def test_residuals_out_of_tolerance_exit_1(monkeypatch, capsys):
+    """An answer whose own residuals fail (forced here: ``ok`` False, the rest the real answer)
+    is printed, then one line says so, exit 1."""
+    solve = Mechanism.solve
+
+    class Unverified:
+        ok = False
+
+        def __init__(self, answer):
+            self._answer = answer
+
+        def __getattr__(self, name):
+            return getattr(self._answer, name)
+
+    monkeypatch.setattr(Mechanism, "solve", lambda self, **kw: Unverified(solve(self, **kw)))
+    path = MODELS / "four_bar.urdf"
+    status, out, err = _run(capsys, "solve", path)
+    assert status == 1 and f"from {path}" in out
+    assert _one_line(err) == f"clearance-pin: {path}: residuals out of tolerance"
+
+
+# -- refused inputs -------------------------------------------------------------------------------
+def test_bad_model_exits_2_with_one_line_naming_file_element_problem(tmp_path, capsys):
+    path = _pendulum_variant(
+        tmp_path,
+        "misnamed.urdf",
+        '<joint name="elbow" type="planar_revolute"',
+        '<joint name="elbo" type="planar_revolute"',
+    )
+    status, out, err = _run(capsys, "solve", path)
+    assert status == 2 and out == ""
+    line = _one_line(err)
+    assert line.startswith(f"clearance-pin: {path}: <joint name='elbo'>: ")
+    assert "no URDF joint is called 'elbo'" in line and "shoulder, elbow, tip_mount" in line
+
+
+def test_missing_file_exits_2(tmp_path, capsys):
+    path = tmp_path / "nowhere.urdf"
+    status, _, err = _run(capsys, "solve", path)
+    assert status == 2
+    line = _one_line(err)
+    assert str(path) in line and "cannot be read" in line
+
+
+def test_unbounded_load_exits_3_naming_the_motion(tmp_path, capsys):
+    """The pendulum with its shoulder no longer driven: the tip load turns it freely."""
+    path = _pendulum_variant(tmp_path, "free_shoulder.urdf", SHOULDER_DRIVE, "")
+    status, out, err = _run(capsys, "solve", path)
+    assert status == 3 and out == ""
+    line = _one_line(err)
+    assert str(path) in line and "no equilibrium" in line
+    assert "joint 'shoulder' alpha" in line
+
+
+def test_solver_failure_exits_4_with_its_residuals(monkeypatch, capsys):
+    """A solve that ends in SolverError (forced here) is not a bad input: its own status, 4,
+    and one line with the solver's status and the residuals it measured."""
+
+    def failing_solve(self, *args, **kwargs):
+        raise SolverError("answer failed verification", "max_iter", {"kkt_stationarity": 3.5e-4})
+
+    monkeypatch.setattr(Mechanism, "solve", failing_solve)
+    path = MODELS / "four_bar.urdf"
+    status, out, err = _run(capsys, "solve", path)
+    assert status == 4 and out == ""
+    line = _one_line(err)
+    assert str(path) in line and "did not reach a verified answer" in line
+    assert "max_iter" in line and "kkt_stationarity=0.00035" in line
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        [],
+        ["solve"],
+        ["solve", str(MODELS / "four_bar.urdf"), "--gravity", "maybe"],
+        ["validate"],  # a script of the source tree (validation/younes2013.py), not a sub-command
+    ],
+)
+def test_bad_command_line_arguments_exit_2(argv, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 2
+    assert "usage: clearance-pin" in capsys.readouterr().err
+
+
+# -- tolerance ------------------------------------------------------------------------------------
+def test_tolerance_bands_are_flores_closed_form(tmp_path, capsys):
+    """The double pendulum, shoulder swept, elbow at 45 deg: the tip's x moves by
+    cos(phi) dl1 + cos(phi + 45 deg) dl2 - l2 sin(phi + 45 deg) da2, so its worst-case half band
+    is the sum of those coefficients' magnitudes times the half tolerances (IT9: 130 um at
+    300 mm, 115 um at 200 mm; 1e-3 rad)."""
+    report = tmp_path / "bands.json"
+    status, out, err = _run(
+        capsys,
+        "tolerance",
+        PENDULUM,
+        "--joint",
+        "shoulder",
+        "--output",
+        "tip.x",
+        "--positions",
+        "5",
+        "--samples",
+        "200",
+        "--no-maxima",
+        "--json",
+        report,
+    )
+    assert status == 0 and err == ""
+    assert "tip.x" in out and f"JSON written to {report}" in out
+    document = json.loads(report.read_text())
+    half = {d["name"]: d["half_tolerance"] for d in document["dimensions"]}
+    assert half == pytest.approx({"l1": 65e-6, "l2": 57.5e-6, "a2": 5e-4}, rel=1e-12)
+    phi = np.radians(document["phi_deg"])
+    elbow = math.pi / 4
+    expected = (
+        np.abs(np.cos(phi)) * half["l1"]
+        + np.abs(np.cos(phi + elbow)) * half["l2"]
+        + np.abs(0.2 * np.sin(phi + elbow)) * half["a2"]
+    )
+    np.testing.assert_allclose(document["outputs"]["tip.x"]["worst"], expected, rtol=1e-9)
+
+
+def test_tolerance_unknown_output_exits_2_listing_the_frames(capsys):
+    status, _, err = _run(
+        capsys, "tolerance", PENDULUM, "--joint", "shoulder", "--output", "hand.x"
+    )
+    assert status == 2
+    line = _one_line(err)
+    assert str(PENDULUM) in line and "unknown frame 'hand'" in line
+    assert "link1" in line and "tip" in line
+
+
+def test_tolerance_without_dimensions_exits_2(capsys):
+    status, _, err = _run(capsys, "tolerance", MODELS / "four_bar.urdf")
+    assert status == 2
+    assert "no <dimension> element" in _one_line(err)
+
+
+# -- the installed entry point --------------------------------------------------------------------
+def test_installed_entry_point_solves():
+    """The console script of the installed package (pyproject [project.scripts])."""
+    script = Path(sys.executable).with_name("clearance-pin")
+    if not script.exists():
+        pytest.skip(f"no console script next to {sys.executable} (package not installed)")
+    done = subprocess.run(
+        [str(script), "solve", str(MODELS / "four_bar.urdf")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "four_bar" in done.stdout and done.stderr == ""
