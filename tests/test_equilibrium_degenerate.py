@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import CASES, build_case, case_specs, case_text
+from conftest import CASES, MODELS, build_case, case_specs, case_text
 
 import clearance_pin as cp
 from clearance_pin.model.builders import JointSpec, shaft_urdf
@@ -182,3 +182,21 @@ def test_nearly_ideal_joint_tends_to_the_ideal_one(diametral):
     near = ideal_second_joint("6.2.2", diametral).solve()
     assert near.ok
     assert np.linalg.norm(near.torsor("I1")[:3] - ideal.torsor("I1")[:3]) <= diametral
+
+
+def test_a_neglected_load_share_along_a_free_motion_is_reported():
+    """A load component along a motion nothing blocks that is below 1e-9 of the load (here 3e-10,
+    the spec of random mechanism 1601 reduced to a shaft whose spin is free) is neglected by the
+    documented rule, and the answer says how much it neglected (it was silent)."""
+    mechanism = cp.load(MODELS / "younes_sphere_cylinder.urdf")
+    base = mechanism.solve()
+    assert base.residuals["unblocked_load"] <= 1e-15  # the file's load passes through the axis
+    shares = []
+    for torque in (1e-9, 2e-9):  # [N m] about the free spin axis x; the load is 1.7 N at 0.3 m
+        answer = mechanism.solve(loads=[*mechanism.loads, cp.Torque("shaft", [torque, 0.0, 0.0])])
+        assert answer.ok
+        shares.append(answer.residuals["unblocked_load"])
+    assert 1e-12 < shares[0] <= 1e-9
+    assert shares[1] == pytest.approx(2.0 * shares[0], rel=1e-3)  # the share is the load's
+    with pytest.raises(cp.UnboundedLoadError):
+        mechanism.solve(loads=[*mechanism.loads, cp.Torque("shaft", [1e-6, 0.0, 0.0])])

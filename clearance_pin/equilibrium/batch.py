@@ -220,7 +220,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         )
     except ClearancePinError:
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
-    objectives, sigmas, gradients, load_sizes, regular = prepared.objectives(wrenches)
+    objectives, sigmas, gradients, load_sizes, shares, regular = prepared.objectives(wrenches)
     items: list = [None] * len(cases)
     items[0] = first
     pending = np.flatnonzero(regular)
@@ -250,7 +250,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
             i = pending[k]
             items[i] = _lazy_item(
                 prepared,
-                (gradients[i], objectives[i], sigmas[i], load_sizes[i]),
+                (gradients[i], objectives[i], sigmas[i], load_sizes[i], shares[i]),
                 y[k],
                 multipliers[k],
                 seed.signs,

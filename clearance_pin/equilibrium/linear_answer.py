@@ -71,6 +71,7 @@ def assemble_linear(
             "max_violation_rel": max(float((-gaps / bounds).max(initial=0.0)), 0.0),
             "clearance_m": float(bounds.max(initial=0.0)),
             "closure_conditioning": problem.conditioning,
+            "unblocked_load": problem.unblocked_share,
             "largest_rotation_rad": float(
                 np.sqrt((torsor_array[:, 3:] ** 2).sum(axis=1)).max(initial=0.0)
             ),

@@ -126,9 +126,10 @@ class PreparedGeometry:
 
         Returns:
             (objectives f (N, r), objective scales sigma (N,), x-space gradients g (N, n),
-            load sizes (N,) [J] (see :func:`~.reduction.with_scaled_load`), regular (N,): False
-            where the load works on an unblocked motion or on none; those cases are left to a
-            single solve, which raises or reports them).
+            load sizes (N,) [J] (see :func:`~.reduction.with_scaled_load`), the shares of the
+            loads along unblocked motions (N,), regular (N,): False where the load works on an
+            unblocked motion or on none; those cases are left to a single solve, which raises or
+            reports them).
         """
         stacked = wrenches @ self._load_rows.T
         first, second = self.terms.split
@@ -151,7 +152,9 @@ class PreparedGeometry:
             sigmas > ROUND_OFF_WORK * references
         )
         objectives = reduced / np.where(sigmas > 0.0, sigmas, 1.0)[:, None]
-        return objectives, sigmas, scaled / self.geometry.scale, load_sizes, regular
+        shares = free_sizes / np.where(references > 0.0, references, 1.0)
+        gradients = scaled / self.geometry.scale
+        return objectives, sigmas, gradients, load_sizes, shares, regular
 
     # -- answer --------------------------------------------------------------------------------
     def torsor_array(self, x: np.ndarray) -> np.ndarray:

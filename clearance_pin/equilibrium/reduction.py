@@ -82,6 +82,9 @@ class ReducedProblem:
         conditioning: see :func:`closure_conditioning`.
         load_size: size of the whole load on the clearance scale [J] (see
             :func:`with_scaled_load`), the reference of relative residuals.
+        unblocked_share: the share of the load along the motions nothing blocks, at most
+            :data:`UNBOUNDED_FRACTION` (a larger one raises UnboundedLoadError): neglected, and
+            reported with the answer (``residuals["unblocked_load"]``).
     """
 
     gradient: np.ndarray
@@ -97,6 +100,7 @@ class ReducedProblem:
     stack: StackedContacts
     conditioning: float = 1.0
     load_size: float = 0.0
+    unblocked_share: float = 0.0
 
     @property
     def size(self) -> int:
@@ -250,7 +254,8 @@ def with_scaled_load(
     if sigma <= ROUND_OFF_WORK * reference:
         reduced_gradient, sigma = np.zeros_like(reduced_gradient), 0.0  # round-off: no working load
     objective = reduced_gradient / sigma if sigma > 0.0 else reduced_gradient
-    return loaded_problem(geometry, scaled_gradient / scale, objective, sigma, load_size)
+    share = free_size / reference if reference > 0.0 else 0.0
+    return loaded_problem(geometry, scaled_gradient / scale, objective, sigma, load_size, share)
 
 
 def loaded_problem(
@@ -259,9 +264,11 @@ def loaded_problem(
     objective: np.ndarray,
     sigma: float,
     load_size: float,
+    unblocked_share: float = 0.0,
 ) -> ReducedProblem:
     """The reduced problem of ``geometry`` for one load already reduced: x-space gradient g,
-    objective f, objective scale sigma [J] and load size [J] (see :func:`with_scaled_load`)."""
+    objective f, objective scale sigma [J], load size [J] and the neglected share of the load
+    along unblocked motions (see :func:`with_scaled_load`)."""
     return ReducedProblem(
         gradient,
         geometry.scale,
@@ -276,6 +283,7 @@ def loaded_problem(
         geometry.stack,
         geometry.conditioning,
         float(load_size),
+        float(unblocked_share),
     )
 
 

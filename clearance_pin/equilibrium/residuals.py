@@ -14,7 +14,10 @@ A solver's status is no proof. Every answer is checked on the quantities of its 
   ``held_by_gauge`` (the share of the load that the motions the linear model leaves free carry at
   the solved pose, held where the linear answer put them; docs/method.md section 4);
 - ``exact="auto"``: ``second_order_m`` [m], the estimated exact - linear difference at the
-  outputs.
+  outputs;
+- ``unblocked_load``: the share of the load along motions nothing blocks that the answer neglects
+  (at most 1e-9 of the load; a larger share has no equilibrium: UnboundedLoadError). It is not
+  always round-off: a load component of 1e-9 of the load is neglected too, and shows here.
 
 A quantity a formulation does not measure is None (not 0): :meth:`Residuals.ok` says which ones
 each test needs.
@@ -65,6 +68,7 @@ class Residuals(Mapping):
     closure: float | None = None
     held_by_gauge: float | None = None
     second_order_m: float | None = None
+    unblocked_load: float | None = None
 
     @classmethod
     def of(cls, values: Mapping[str, float]) -> Residuals:
