@@ -26,9 +26,9 @@ from .errors import (
     SuspectValueWarning,
     UnboundedLoadError,
 )
+from .loading import load, loads
 from .mechanism import Mechanism
 from .model.loads import Gravity, PointForce, Torque
-from .model.model_file import load, loads
 
 __version__ = "0.1.0"
 

@@ -32,7 +32,7 @@ OK, OUT_OF_TOLERANCE, BAD_INPUT, NO_EQUILIBRIUM, SOLVER_FAILED = range(5)
 
 
 def _solve(args: argparse.Namespace) -> int:
-    from .model.model_file import load
+    from .loading import load
 
     mechanism = load(args.model, package_dirs=args.package_dir)
     gravity = {"on": True, "off": False, None: None}[args.gravity]

@@ -17,6 +17,7 @@ from .equilibrium.second_order import estimate_difference
 from .equilibrium.solve import solve_linear
 from .errors import ClearancePinError, LoadError, ModelError, SolverError
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
+from .model import plausibility
 from .model.joints import LoopJoint, TreeJoint
 from .model.loads import Gravity, Load, PointForce, Torque
 
@@ -53,16 +54,23 @@ class Configuration:
 class Mechanism:
     """A mechanism: ``pin.Model`` + joint clearances + loop joints + loads (SI units).
 
-    Use :func:`clearance_pin.load` to read one from a model file.
+    Use :func:`clearance_pin.load` to read one from a model file. A mechanism is complete when
+    it is constructed: suspect values (a clearance in mm, a nominal value outside its limits, a
+    tolerance as wide as its size) are warned (``check_values``), and the loops are closed, so an
+    impossible assembly raises ModelError here.
 
     Attributes:
         model: the Pinocchio model of the kinematic tree.
         tree_joints: every joint of the tree with its clearance (ideal when none was given).
         loop_joints: the cut joints closing loops.
-        q_nominal: nominal configuration (nq,).
+        q_nominal: nominal configuration (nq,), loops closed.
         loads: default loads of :meth:`solve`.
         gravity: gravity applied by default (None: off).
         source: where the description came from (file path or ``"<api>"``).
+        dimensions: toleranced dimensions (:class:`~clearance_pin.model.dimensions.Dimension`).
+        cache: what solves build and keep (:class:`~clearance_pin.equilibrium.cache.SolveCache`).
+        nominal_given: (argument) joint id -> nominal value [rad or m] as the user gave it, for the
+            limit warnings (default: the values in ``q_nominal``).
     """
 
     def __init__(
@@ -76,6 +84,9 @@ class Mechanism:
         source: str = "<api>",
         name: str = "",
         collision_model=None,
+        dimensions: tuple = (),
+        nominal_given: dict[int, float] | None = None,
+        check_values: bool = True,
     ):
         self.model = model
         self.tree_joints = tuple(tree_joints)
@@ -86,7 +97,7 @@ class Mechanism:
         self.source = source
         self.name = name or model.name
         self.collision_model = collision_model
-        self.dimensions: tuple = ()
+        self.dimensions = tuple(dimensions)
         self._nominal_closed: np.ndarray | None = None
         self.link_frames = {
             f.name: i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY
@@ -96,6 +107,33 @@ class Mechanism:
         if len(self.joints) != len(self.tree_joints) + len(self.loop_joints):
             raise ModelError(source, "<joints>", "joint names must be unique across tree and loops")
         self.cache = SolveCache(model)
+        if check_values:  # unit mistakes warned before the loops are closed (which they may break)
+            given = nominal_given
+            if given is None:
+                given = plausibility.configuration_values(model, self.q_nominal)
+            plausibility.warn_large_clearances(self)
+            plausibility.warn_nominal_values(self, given)
+            plausibility.warn_wide_tolerances(self, self.dimensions)
+        if self.loop_joints:  # closed now: a mechanism is complete, errors come at construction
+            self.q_nominal = self.configure().q
+            self._nominal_closed = self.q_nominal.copy()
+
+    def with_model(self, model: pin.Model) -> Mechanism:
+        """The same mechanism on another ``pin.Model`` of the same tree (a manufactured one:
+        :func:`clearance_pin.tolerance.dimensions.with_deviations`), its loops closed from this
+        mechanism's nominal configuration; its values are not checked again."""
+        return Mechanism(
+            model,
+            self.tree_joints,
+            self.loop_joints,
+            self.q_nominal,
+            self.loads,
+            self.gravity,
+            source=self.source,
+            name=self.name,
+            dimensions=self.dimensions,
+            check_values=False,
+        )
 
     @property
     def data(self) -> pin.Data:
@@ -322,7 +360,6 @@ class Mechanism:
 
         check_solve_many(self, loads, configurations, options)
         return solve_many(self, loads, configurations, **options)
-
 
     def joint(self, name: str):
         """The tree or loop joint called ``name``."""

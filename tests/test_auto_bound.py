@@ -26,7 +26,7 @@ import clearance_pin as cp
 from clearance_pin.equilibrium.outputs import resolve_outputs
 from clearance_pin.equilibrium.second_order import estimate_difference
 from clearance_pin.errors import ClearancePinError, ClearancePinWarning
-from clearance_pin.model.model_file import loads as load_text
+from clearance_pin.loading import loads as load_text
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "validation"))

@@ -221,7 +221,7 @@ def test_a_universal_joint_cross_is_no_size():
   </clearance_pin>
 </robot>
 """
-    from clearance_pin.model.model_file import loads
+    from clearance_pin.loading import loads
 
     with warnings.catch_warnings():
         warnings.simplefilter("error", cp.ClearancePinWarning)

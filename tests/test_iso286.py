@@ -1,4 +1,4 @@
-"""Tests of clearance_pin.tolerance.iso286 (ISO 286-1 standard tolerance grades)."""
+"""Tests of clearance_pin.model.iso286 (ISO 286-1 standard tolerance grades)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from clearance_pin.tolerance.iso286 import (
+from clearance_pin.model.iso286 import (
     GRADES,
     ISO286_RANGES_MM,
     ToleranceInputError,

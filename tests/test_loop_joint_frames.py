@@ -11,10 +11,12 @@ from conftest import MODELS
 import clearance_pin as cp
 from clearance_pin import PointForce, Torque
 from clearance_pin.errors import ModelError
-from clearance_pin.model.model_file import loads
+from clearance_pin.loading import loads
 
 PLAY = 5e-05  # [m] every joint of models/slider_crank.urdf
-GUIDE_AT_ORIGIN = '<joint name="guide_mount" type="fixed"><parent link="ground"/><child link="guide"/></joint>'
+GUIDE_AT_ORIGIN = (
+    '<joint name="guide_mount" type="fixed"><parent link="ground"/><child link="guide"/></joint>'
+)
 
 
 def slider_crank_with_guide_at(x: float):
@@ -32,9 +34,7 @@ def test_the_guide_frame_may_sit_anywhere_on_the_guide_axis(exact):
     crank pivot, moved its slider 342 um across a 50 um guide play with ok=True. The answer must not
     depend on where along its axis the guide frame is written (origin, under the slider, 0.5 m
     beyond it): the block's corners are on the slider, where the slider is."""
-    answers = [
-        slider_crank_with_guide_at(x).solve(exact=exact) for x in (0.0, 0.1369, 0.5)
-    ]
+    answers = [slider_crank_with_guide_at(x).solve(exact=exact) for x in (0.0, 0.1369, 0.5)]
     reference = answers[0]
     assert all(a.ok for a in answers)
     for other in answers[1:]:

@@ -166,5 +166,5 @@ def test_batched_answers_report_the_loaded_points_too():
     single = mechanism.solve()
     batch = mechanism.solve_many([list(mechanism.loads)] * 3)
     assert list(batch[1].outputs) == list(single.outputs)
-    for name, (t, r) in single.outputs.items():
+    for name, (t, _) in single.outputs.items():
         assert np.allclose(batch[1].outputs[name][0], t, rtol=0, atol=1e-15)

@@ -13,13 +13,9 @@ from hypothesis import strategies as st
 
 import clearance_pin
 from clearance_pin.errors import ModelError
+from clearance_pin.model.dimensions import Dimension
 from clearance_pin.tolerance import tolerance_m
-from clearance_pin.tolerance.dimensions import (
-    Dimension,
-    affected_frames,
-    apply_deviations,
-    with_deviations,
-)
+from clearance_pin.tolerance.dimensions import affected_frames, apply_deviations, with_deviations
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 

@@ -130,7 +130,9 @@ class IpoptBackend:
     def run(self, problem: ReducedProblem):
         """(y, multipliers, status, iterations) from the nominal start y = 0."""
         stack = problem.stack
-        parameters = np.concatenate([problem.objective, stack.matrix.ravel(order="F"), stack.offset])
+        parameters = np.concatenate(
+            [problem.objective, stack.matrix.ravel(order="F"), stack.offset]
+        )
         result = self._solver(
             x0=np.zeros(problem.size), p=parameters, lbg=self._lower, ubg=self._upper
         )

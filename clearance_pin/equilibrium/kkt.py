@@ -50,9 +50,7 @@ class StackedContacts:
         self.count = len(matrices)
         self.matrix = np.vstack(matrices) if matrices else np.zeros((0, size))
         # o: the images at y = 0 (a misaligned housing), so that every image is P y + o
-        self.offset = (
-            np.concatenate(offsets) if offsets else np.zeros(self.matrix.shape[0])
-        )
+        self.offset = np.concatenate(offsets) if offsets else np.zeros(self.matrix.shape[0])
         lengths = np.array([m.shape[0] for m in matrices], dtype=int)
         self.starts = (
             np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(int)

@@ -62,7 +62,10 @@ def gather_body_loads(
                 inertia = model.inertias[body]
                 if inertia.mass > 0.0:
                     _add_force(
-                        entry(body), placed.oMi[body], inertia.lever, inertia.mass * load.acceleration
+                        entry(body),
+                        placed.oMi[body],
+                        inertia.lever,
+                        inertia.mass * load.acceleration,
                     )
             continue
         if load.link not in link_frames:

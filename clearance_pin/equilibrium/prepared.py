@@ -382,9 +382,7 @@ def linear_setup(mechanism, loads, q):
     """Configuration, maps, per-body loads (with the exact model's terms) and reduced problem."""
     prepared = prepared_geometry(mechanism, q)
     configuration = prepared.configuration
-    body_loads = gather_body_loads(
-        mechanism.model, configuration, loads, mechanism.link_frames
-    )
+    body_loads = gather_body_loads(mechanism.model, configuration, loads, mechanism.link_frames)
     return configuration, prepared.maps, body_loads, prepared.problem(loads)
 
 

@@ -108,4 +108,10 @@ class Residuals(Mapping):
         return len(self._measured())
 
 
-__all__ = ["DUAL_TOLERANCE", "FEASIBILITY_TOLERANCE", "STATICS_TOLERANCE", "Residuals", "Tolerances"]
+__all__ = [
+    "DUAL_TOLERANCE",
+    "FEASIBILITY_TOLERANCE",
+    "STATICS_TOLERANCE",
+    "Residuals",
+    "Tolerances",
+]

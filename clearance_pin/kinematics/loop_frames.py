@@ -129,4 +129,3 @@ def _rigid_miss(relative: pin.SE3, component: int) -> float:
     if component < ALPHA:
         return abs(float(relative.translation[component]))
     return abs(float(pin.log3(relative.rotation)[component - ALPHA]))
-

@@ -1,9 +1,11 @@
-"""Model description: clearance kinds, joints, loads, and the model-file reader."""
+"""Model description: clearance kinds, joints, loads, toleranced dimensions, the model-file reader
+(:func:`~.model_file.read_file`; :func:`clearance_pin.load` builds the mechanism)."""
 
 from .clearance import KINDS, Clearance, ContactPoint
+from .dimensions import Dimension
 from .joints import LoopJoint, TreeJoint
 from .loads import Gravity, PointForce, Torque
-from .model_file import load, loads
+from .model_file import MechanismDescription, read_file, read_text
 
 __all__ = [
     "KINDS",
@@ -14,6 +16,8 @@ __all__ = [
     "Gravity",
     "PointForce",
     "Torque",
-    "load",
-    "loads",
+    "Dimension",
+    "MechanismDescription",
+    "read_file",
+    "read_text",
 ]

@@ -27,8 +27,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ArgumentError, LoadError, ModelError
-from . import plausibility
 from .clearance import KINDS, Clearance, ideal
+from .dimensions import parse_dimensions
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
 from .loads import Gravity, PointForce, Torque
 
@@ -68,8 +68,30 @@ IDEAL_KIND_OF_URDF = {
 }
 
 
-def load(path: str | Path, package_dirs=None):
-    """Read a mechanism from a model file (URDF + ``<clearance_pin>``).
+@dataclass(frozen=True)
+class MechanismDescription:
+    """What a model file describes: the arguments of a
+    :class:`~clearance_pin.mechanism.Mechanism` (:func:`clearance_pin.load` builds it)."""
+
+    model: pin.Model
+    tree_joints: tuple
+    loop_joints: tuple
+    q_nominal: np.ndarray
+    loads: tuple
+    gravity: Gravity | None
+    source: str
+    name: str
+    collision_model: object
+    dimensions: tuple
+    nominal_given: dict[int, float]
+
+    def arguments(self) -> dict:
+        """Keyword arguments of the Mechanism constructor."""
+        return {f: getattr(self, f) for f in self.__dataclass_fields__}
+
+
+def read_file(path: str | Path, package_dirs=None) -> MechanismDescription:
+    """Read a model file (URDF + ``<clearance_pin>``).
 
     Args:
         path: the ``.urdf`` file, in the encoding its XML declaration names (UTF-8 without one).
@@ -79,7 +101,7 @@ def load(path: str | Path, package_dirs=None):
             when a check needs them (``Equilibrium.check``), never to solve.
 
     Returns:
-        :class:`~clearance_pin.mechanism.Mechanism`.
+        :class:`MechanismDescription`.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise ArgumentError("path", "a file path (str or pathlib.Path)", path)
@@ -91,23 +113,21 @@ def load(path: str | Path, package_dirs=None):
     return _read(data, str(path), path.parent, package_dirs)
 
 
-def loads(
+def read_text(
     text: str | bytes, source: str = "<string>", mesh_dir: Path | None = None, package_dirs=None
-):
-    """Read a mechanism from the text of a model file (see :func:`load`).
+) -> MechanismDescription:
+    """Read the text of a model file (see :func:`read_file`).
 
     Args:
         text: the file's text (str), or its bytes, decoded as its XML declaration says.
         source: the name used in messages.
         mesh_dir: directory of relative mesh paths (the file's directory).
-        package_dirs: as in :func:`load`.
+        package_dirs: as in :func:`read_file`.
     """
     return _read(text, source, mesh_dir, package_dirs)
 
 
-def _read(text, source: str, mesh_dir, package_dirs):
-    from ..mechanism import Mechanism
-
+def _read(text, source: str, mesh_dir, package_dirs) -> MechanismDescription:
     if isinstance(text, (bytes, bytearray)):
         text = decode_xml(bytes(text), source)
     elif not isinstance(text, str):
@@ -124,31 +144,19 @@ def _read(text, source: str, mesh_dir, package_dirs):
     tree_joints, q = reader.tree_joints(model, block)
     loop_joints = reader.loop_joints(model, block)
     forces, gravity = reader.loads(model, block)
-    dimensions = ()
-    if block.find("dimension") is not None:
-        from ..tolerance.dimensions import parse_dimensions
-
-        dimensions = parse_dimensions(source, block, model)
-    mechanism = Mechanism(
-        model,
-        tree_joints,
-        loop_joints,
-        q,
-        forces,
-        gravity,
+    return MechanismDescription(
+        model=model,
+        tree_joints=tuple(tree_joints),
+        loop_joints=tuple(loop_joints),
+        q_nominal=q,
+        loads=tuple(forces),
+        gravity=gravity,
         source=source,
         name=reader.root.get("name", ""),
         collision_model=collision,
+        dimensions=parse_dimensions(source, block, model),
+        nominal_given=dict(reader.nominal_given),
     )
-    mechanism.dimensions = dimensions
-    # stacklevel 4: the warning points at the caller of load / loads
-    plausibility.warn_large_clearances(mechanism, stacklevel=4)
-    plausibility.warn_nominal_values(mechanism, reader.nominal_given, stacklevel=4)
-    plausibility.warn_wide_tolerances(mechanism, dimensions, stacklevel=4)
-    if loop_joints:
-        mechanism.q_nominal = mechanism.configure().q  # close the loops now: errors at load time
-        mechanism._nominal_closed = mechanism.q_nominal.copy()
-    return mechanism
 
 
 _DECLARATION = re.compile(r"^\ufeff?\s*<\?xml\b[^>]*\?>")

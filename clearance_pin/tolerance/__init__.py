@@ -25,7 +25,8 @@ size into ``T``.
 
 Modules:
 
-- :mod:`~clearance_pin.tolerance.iso286`: the ISO 286-1 table IT01..IT18 up to 500 mm.
+- :mod:`~clearance_pin.model.iso286`: the ISO 286-1 table IT01..IT18 up to 500 mm (read with the
+  model's ``<dimension grade="IT10">``).
 - :mod:`~clearance_pin.tolerance.statistics`: bands, allocation, confidence, Monte Carlo
   inputs.
 
@@ -36,8 +37,8 @@ Source: P. Flores, "A methodology for quantifying the kinematic position errors 
 manufacturing and assembly tolerances", Strojniski vestnik - J. Mech. Eng. (2011).
 """
 
-from .dimensions import Dimension, parse_dimensions
-from .iso286 import (
+from ..model.dimensions import Dimension, parse_dimensions
+from ..model.iso286 import (
     GRADES,
     ISO286_RANGES_MM,
     ToleranceInputError,

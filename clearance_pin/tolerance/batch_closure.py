@@ -30,7 +30,8 @@ from ..kinematics.closure import (
     passive_motions,
 )
 from ..model.clearance import ALPHA
-from .dimensions import Dimension, directly_moved
+from ..model.dimensions import Dimension
+from .dimensions import directly_moved
 from .sensitivity import Sensitivities, sensitivities
 from .tape import (
     _add,

@@ -128,7 +128,7 @@ def default_outputs(mechanism) -> tuple[Output, ...]:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command; returns the exit status (0)."""
-    from ..model.model_file import load
+    from ..loading import load
 
     mechanism = load(args.model)
     if not mechanism.dimensions:

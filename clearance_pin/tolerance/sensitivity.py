@@ -64,7 +64,8 @@ from ..kinematics.closure import (
     passive_velocity_indices,
 )
 from ..model.clearance import ALPHA
-from .dimensions import Dimension, affected_frames
+from ..model.dimensions import Dimension
+from .dimensions import affected_frames
 from .statistics import rss_band, worst_case_band
 
 __all__ = [

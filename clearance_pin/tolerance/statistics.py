@@ -27,7 +27,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .iso286 import ToleranceInputError
+from ..model.iso286 import ToleranceInputError
 
 __all__ = [
     "confidence_for_admissible",
