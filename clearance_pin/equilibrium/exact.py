@@ -27,13 +27,14 @@ from ..errors import SolverError, UnboundedLoadError, UnsupportedError
 from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
+from ..numerics import null_space
 from .kkt import ACCEPT_KKT
 from .outputs import output_displacements, resolve_outputs
 from .prepared import linear_setup
 from .reactions import frames_at
 from .residuals import STATICS_TOLERANCE, Residuals
 from .result import Contact, Equilibrium
-from .small_displacement import null_space, tree_joint_basis
+from .small_displacement import tree_joint_basis
 
 
 @dataclass(frozen=True)
@@ -688,4 +689,4 @@ def _difference(exact: Equilibrium, linear: Equilibrium, points) -> dict:
     }
 
 
-__all__ = ["ExactProblem", "solve_exact_model", "independent_rows", "null_space"]
+__all__ = ["ExactProblem", "independent_rows", "solve_exact_model"]

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..numerics import null_space, row_spaces
+
 POLISH_TOL = 1e-14
 ACCEPT_KKT = 1e-12  # polished answers reach ~1e-15; a load component of 1e-10 must not pass
 UNLOADED = 1e-9  # a contact carrying less than this share of the largest force is unloaded
@@ -115,11 +117,8 @@ class StackedContacts:
         rows = self.matrix[np.isin(self.row_contact, contacts)]
         if not rows.size:
             return np.zeros((self.size, 0)), np.eye(self.size)
-        _, singular, vt = np.linalg.svd(
-            rows / max(1.0, float(np.abs(rows).max())), full_matrices=rows.shape[0] < self.size
-        )
-        rank = int(np.sum(singular > 1e-9 * singular[0])) if singular[0] > 0.0 else 0
-        return vt[:rank].T.copy(), vt[rank:].T.copy()
+        spaces = row_spaces(rows / max(1.0, float(np.abs(rows).max())), rtol=1e-9)
+        return spaces.row, spaces.null
 
     def values(self, y: np.ndarray, signs: np.ndarray) -> np.ndarray:
         """phi_j(y) for every contact (slabs on their side ``signs``; |.| if signs is None)."""
@@ -401,7 +400,7 @@ def _step_to_next_contact(stack: StackedContacts, objective, y, signs, active):
     Returns (new y, index of the contact reached) or None when no contact bounds that motion.
     """
     _, gradients = stack.evaluate(y, signs)
-    tangent = null_space_rows(gradients[active])
+    tangent = null_space(gradients[active], rtol=1e-12)
     direction = -tangent @ (tangent.T @ objective)
     if np.linalg.norm(direction) <= 1e-14:
         return None
@@ -427,13 +426,3 @@ def _step_to_next_contact(stack: StackedContacts, objective, y, signs, active):
     if reached is None:
         return None
     return y + best * direction, int(reached)
-
-
-def null_space_rows(rows: np.ndarray) -> np.ndarray:
-    """Orthonormal basis of the vectors orthogonal to every row of ``rows`` (r, k)."""
-    size = rows.shape[1]
-    if rows.shape[0] == 0:
-        return np.eye(size)
-    _, s, vt = np.linalg.svd(rows)
-    rank = int(np.sum(s > 1e-12 * max(s[0], 1e-300)))
-    return vt[rank:].T

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..numerics import column_space, null_space
 from .kkt import UNLOADED
 from .lazy import LazySequence
 from .load_terms import gather_body_loads
@@ -33,7 +34,7 @@ from .reduction import (
     reduce_geometry,
     with_scaled_load,
 )
-from .small_displacement import SmallDisplacementMaps, build_maps, null_space
+from .small_displacement import SmallDisplacementMaps, build_maps
 
 
 class PreparedGeometry:
@@ -336,7 +337,11 @@ def geometry_terms(mechanism, geometry: ReducedGeometry) -> GeometryTerms:
         ),
         norm_force=np.where(row_is_norm, -2.0 / row_bounds**2, 0.0),
         slab_force=np.where(row_is_norm, 0.0, -1.0 / row_bounds),
-        reactions=_column_basis(geometry.equalities.T * scale[:, None]),
+        # the rank as numpy.linalg.lstsq decides it: eps * max(n, m) of the largest
+        reactions=column_space(
+            geometry.equalities.T * scale[:, None],
+            np.finfo(float).eps * max(geometry.equalities.shape, default=1),
+        ),
     )
     with cache.lock:
         cache.geometry_terms[id(geometry)] = (geometry, terms)
@@ -384,15 +389,3 @@ def linear_setup(mechanism, loads, q):
     configuration = prepared.configuration
     body_loads = gather_body_loads(mechanism.model, configuration, loads, mechanism.link_frames)
     return configuration, prepared.maps, body_loads, prepared.problem(loads)
-
-
-def _column_basis(matrix: np.ndarray) -> np.ndarray:
-    """Orthonormal basis of the column space of ``matrix`` (n, m), rank as numpy.linalg.lstsq
-    decides it (singular values above eps * max(n, m) of the largest)."""
-    if matrix.size == 0:
-        return np.zeros((matrix.shape[0], 0))
-    u, s, _ = np.linalg.svd(matrix, full_matrices=False)
-    if s.size == 0 or s[0] == 0.0:
-        return np.zeros((matrix.shape[0], 0))
-    rank = int(np.sum(s > np.finfo(float).eps * max(matrix.shape) * s[0]))
-    return u[:, :rank].copy()

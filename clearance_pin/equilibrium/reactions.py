@@ -52,9 +52,10 @@ import pinocchio as pin
 
 from ..errors import ArgumentError, ClearancePinError
 from ..model.clearance import ALPHA, BETA, GAMMA
+from ..numerics import null_space
 from .load_terms import gather_body_loads
 from .poses import clearance_frames
-from .small_displacement import null_space, tree_joint_basis
+from .small_displacement import tree_joint_basis
 
 FRAMES = ("joint", "world")
 PARTS = ("rigid", "drive", "held")  # the parts recovered from the statics

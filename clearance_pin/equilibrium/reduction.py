@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import UnboundedLoadError
 from ..kinematics.loop_frames import nominal_offsets
 from ..model.clearance import COMPONENT_MEANING, COMPONENT_NAMES, ContactPoint
-from ..numerics import norm
+from ..numerics import norm, row_spaces
 from .kkt import StackedContacts
 from .lazy import LazySequence
 from .small_displacement import SmallDisplacementMaps
@@ -150,12 +150,12 @@ def _split_rows(rows: np.ndarray, dimension: int, rtol: float = 1e-10):
     """
     if rows.size == 0:
         return np.eye(dimension), np.zeros((dimension, 0)), 1.0
-    _, singular, vt = np.linalg.svd(rows, full_matrices=rows.shape[0] < dimension)
+    spaces = row_spaces(rows, rtol, RANK_ATOL)
+    singular = spaces.singular
     if singular.size == 0 or singular[0] == 0.0:
-        return np.eye(dimension), np.zeros((dimension, 0)), 1.0
-    rank = int(np.sum((singular > rtol * singular[0]) & (singular > RANK_ATOL)))
+        return spaces.null, spaces.row, 1.0
     kept = singular[singular > rtol * singular[0]]
-    return vt[rank:].T.copy(), vt[:rank].T.copy(), float(kept[-1] / singular[0])
+    return spaces.null, spaces.row, float(kept[-1] / singular[0])
 
 
 def reduce_geometry(

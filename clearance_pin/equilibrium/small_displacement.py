@@ -23,6 +23,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..model.joints import LoopJoint, TreeJoint
+from ..numerics import null_space
 
 
 @dataclass(frozen=True)
@@ -147,24 +148,6 @@ def build_maps(
         tuple(variable_basis),
         eccentricity,
     )
-
-
-def null_space(matrix: np.ndarray, rtol: float = 1e-10, atol: float = 0.0) -> np.ndarray:
-    """Orthonormal basis (n, n - rank) of the null space of ``matrix`` (m, n), by SVD.
-
-    A singular value counts towards the rank when it exceeds both ``rtol`` times the largest and
-    ``atol``. Give ``atol`` when the rows have a known natural size (normalised rows): a block of
-    rows that are all round-off then has rank 0, which a purely relative test cannot see.
-    """
-    matrix = np.atleast_2d(matrix)
-    n = matrix.shape[1]
-    if matrix.shape[0] == 0:
-        return np.eye(n)
-    _, s, vt = np.linalg.svd(matrix)
-    if s.size == 0 or s[0] == 0.0:
-        return np.eye(n)
-    rank = int(np.sum((s > rtol * s[0]) & (s > atol)))
-    return vt[rank:].T.copy()
 
 
 def _align_to_axes(basis: np.ndarray) -> np.ndarray:
