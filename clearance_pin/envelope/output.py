@@ -138,9 +138,7 @@ def _parse(mechanism: Any, output: object) -> tuple[str | None, Vector, str]:
         except (TypeError, ValueError):
             point = np.zeros(0)
         return _checked_point(mechanism, output[0], point, output)
-    raise ArgumentError(
-        "output", "a frame name, 'link@[x y z]' or (link, (x, y, z)) [m]", output
-    )
+    raise ArgumentError("output", "a frame name, 'link@[x y z]' or (link, (x, y, z)) [m]", output)
 
 
 def _checked_point(
@@ -159,7 +157,10 @@ def _checked_point(
 def _link_of_body(mechanism: Any, body: int, name: str) -> int:
     """The frame id of a URDF link of ``body`` (the body frame itself when the frame is one)."""
     model = mechanism.model
-    if name in mechanism.link_frames and model.frames[mechanism.link_frames[name]].parentJoint == body:
+    if (
+        name in mechanism.link_frames
+        and model.frames[mechanism.link_frames[name]].parentJoint == body
+    ):
         return int(mechanism.link_frames[name])
     for frame_id in mechanism.link_frames.values():
         if model.frames[frame_id].parentJoint == body:

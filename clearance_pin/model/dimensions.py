@@ -61,6 +61,7 @@ import pinocchio as pin
 
 from ..errors import ArgumentError, ModelError
 from .iso286 import ToleranceInputError, tolerance_m
+from .xml_values import number, vector
 
 __all__ = ["Dimension", "parse_dimensions"]
 
@@ -190,7 +191,8 @@ def _parse_one(source: str, element: ET.Element, model: pin.Model) -> Dimension:
         )
     kind: Literal["length", "angle"] = "length" if has_direction else "angle"
     attribute = "direction" if has_direction else "rotation_axis"
-    axis = _unit_vector(source, label, element.get(attribute), attribute)
+    axis = vector(source, label, element.get(attribute), attribute)
+    axis = axis / float(np.linalg.norm(axis))
 
     parent_joint, placement, link = _anchor(model, frame_id)
     axis_pj = link.rotation @ axis
@@ -227,7 +229,8 @@ def _parse_one(source: str, element: ET.Element, model: pin.Model) -> Dimension:
                 f"{exc.problem}",
             ) from None
     else:
-        value = _nonnegative(source, label, element, given[0], "m" if kind == "length" else "rad")
+        unit = "m" if kind == "length" else "rad"
+        value = number(source, label, element, given[0], nonnegative=True, unit=unit)
         tolerance = value if given[0] == "tolerance" else 2.0 * value
     return Dimension(
         name,
@@ -279,27 +282,3 @@ def _anchor(model: pin.Model, frame_id: int) -> tuple[int, pin.SE3, pin.SE3]:
     link = model.frames[frame.parentFrame]
     link_placement = link.placement if link.parentJoint == parent_joint else pin.SE3.Identity()
     return parent_joint, placement.copy(), link_placement.copy()
-
-
-def _unit_vector(source: str, label: str, text: str, attribute: str) -> np.ndarray:
-    try:
-        value = np.array([float(v) for v in text.split()], dtype=float)
-    except ValueError:
-        raise ModelError(source, label, f"{attribute}={text!r} is not 3 numbers") from None
-    if value.shape != (3,) or not np.all(np.isfinite(value)):
-        raise ModelError(source, label, f"{attribute}={text!r} must be 3 finite numbers")
-    norm = float(np.linalg.norm(value))
-    if norm == 0.0:
-        raise ModelError(source, label, f"{attribute} has zero length")
-    return value / norm
-
-
-def _nonnegative(source: str, label: str, element: ET.Element, key: str, unit: str) -> float:
-    text = element.get(key)
-    try:
-        value = float(text)
-    except (TypeError, ValueError):
-        raise ModelError(source, label, f"{key}={text!r} is not a number [{unit}]") from None
-    if not math.isfinite(value) or value < 0.0:
-        raise ModelError(source, label, f"{key}={text!r} must be a finite number >= 0 [{unit}]")
-    return value

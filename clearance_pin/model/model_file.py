@@ -31,6 +31,7 @@ from .clearance import KINDS, Clearance, ideal
 from .dimensions import parse_dimensions
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
 from .loads import Gravity, PointForce, Torque
+from .xml_values import number, vector
 
 BLOCK = "clearance_pin"
 CLEARANCE_ATTRIBUTES = {
@@ -91,18 +92,8 @@ class MechanismDescription:
 
 
 def read_file(path: str | Path, package_dirs=None) -> MechanismDescription:
-    """Read a model file (URDF + ``<clearance_pin>``).
-
-    Args:
-        path: the ``.urdf`` file, in the encoding its XML declaration names (UTF-8 without one).
-        package_dirs: directories in which collision meshes are looked for: a ``package://pkg/f``
-            mesh is ``<dir>/pkg/f``, a relative one ``<dir>/f``; then the file's own directory
-            and the entries of the environment variable ROS_PACKAGE_PATH. Meshes are read only
-            when a check needs them (``Equilibrium.check``), never to solve.
-
-    Returns:
-        :class:`MechanismDescription`.
-    """
+    """Read a model file (URDF + ``<clearance_pin>``); the arguments are those of
+    :func:`clearance_pin.load`, which builds the mechanism from the description."""
     if not isinstance(path, (str, os.PathLike)):
         raise ArgumentError("path", "a file path (str or pathlib.Path)", path)
     path = Path(path)
@@ -622,17 +613,7 @@ def _number(
     nonnegative: bool = False,
     label: str | None = None,
 ) -> float:
-    label = label or _label(element)
-    text = element.get(attribute)
-    try:
-        value = float(text)
-    except (TypeError, ValueError):
-        raise ModelError(source, label, f"{attribute}={text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise ModelError(source, label, f"{attribute}={text!r} must be finite")
-    if nonnegative and value < 0.0:
-        raise ModelError(source, label, f"{attribute}={text!r} must be >= 0")
-    return value
+    return number(source, label or _label(element), element, attribute, nonnegative)
 
 
 def _vector(
@@ -643,21 +624,8 @@ def _vector(
     allow_zero: bool = False,
     label: str | None = None,
 ):
-    label = label or _label(element)
     text = element.get(attribute) if element is not None else None
-    if text is None:
-        if default is None:
-            raise ModelError(source, label, f"needs {attribute} (3 numbers)")
-        return np.array(default, dtype=float)
-    try:
-        value = np.array([float(v) for v in text.split()], dtype=float)
-    except ValueError:
-        raise ModelError(source, label, f"{attribute}={text!r} is not 3 numbers") from None
-    if value.shape != (3,) or not np.all(np.isfinite(value)):
-        raise ModelError(source, label, f"{attribute}={text!r} must be 3 finite numbers")
-    if not allow_zero and np.linalg.norm(value) == 0.0:
-        raise ModelError(source, label, f"{attribute} has zero length")
-    return value
+    return vector(source, label or _label(element), text, attribute, default, allow_zero)
 
 
 def _boolean(source: str, element, attribute: str, default: bool) -> bool:

@@ -1,0 +1,134 @@
+r"""The support function of the clearance envelope, by duality with an equilibrium.
+
+In the small-displacement model the admissible states $y$ form a convex set $Y$ (docs/method.md
+sections 2-3) and the output's deviation is linear in them, $\delta = G y$, so the deviations form
+a convex set $D = G\,Y$, the *envelope*. Its support function in a unit direction $d$ (world axes)
+is
+
+.. math::  h_D(d) = \max_{y \in Y} d \cdot G y = -\min_{y \in Y} g^T y ,
+
+the minimum of the potential $g^T y$ of a unit force along $d$ at the output point (kind
+``"translation"``, [m]) or of a unit torque along $d$ on its part (``"rotation"``, [rad]):
+the equilibrium under that load (:meth:`Mechanism.solve`) is the state that reaches the support,
+and $h_D(d) = d \cdot \delta$ its deviation along $d$. Driven joints are held by their drives;
+passive joints follow their loops. The support point $\delta(d)$ is a subgradient of $h_D$ at $d$.
+
+The exact model is evaluated the same way (``exact=True``): the equilibrium under the unit load
+maximises the load's exact work, $d \cdot \delta$ for a force, $\sin\theta\, n \cdot d$ for a
+torque (docs/method.md section 4), near the linear state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from ..errors import SolverError
+from ..model.loads import PointForce, Torque
+from .output import Kind, Output
+
+Vector = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SupportValues:
+    """Support evaluations in many directions.
+
+    Attributes:
+        directions: unit directions (N, 3), world axes.
+        values: $h(d) = d \\cdot \\delta(d)$ [m or rad], (N,).
+        points: the deviations $\\delta(d)$ of the states that reach them [m or rad], (N, 3).
+        states: the verified equilibria (:class:`~clearance_pin.equilibrium.result.Equilibrium`).
+    """
+
+    directions: Vector
+    values: Vector
+    points: Vector
+    states: tuple[Any, ...]
+
+
+class SupportFunction:
+    """$h(d)$ of one output and kind, by equilibria under unit loads (module docstring).
+
+    Args:
+        mechanism: the :class:`~clearance_pin.mechanism.Mechanism`.
+        output: the :class:`~.output.Output`.
+        kind: ``"translation"`` (unit force at the output point) or ``"rotation"`` (unit torque).
+        q: configuration (None: the nominal one); driven joints are held there.
+        exact: solve the exact finite-displacement model instead.
+    """
+
+    def __init__(
+        self, mechanism: Any, output: Output, kind: Kind, q: Vector | None, exact: bool = False
+    ) -> None:
+        self.mechanism = mechanism
+        self.output = output
+        self.kind = kind
+        self.q = q
+        self.exact = exact
+        self.evaluations = 0
+
+    def load(self, direction: Vector) -> PointForce | Torque:
+        """The unit load along ``direction`` (1 N at the output point, or 1 N m on its link)."""
+        if self.kind == "translation":
+            return PointForce(self.output.link, force=direction, point=self.output.point)
+        return Torque(self.output.link, torque=direction)
+
+    def evaluate(self, directions: Vector) -> SupportValues:
+        """Support values and states in ``directions`` (N, 3) (normalised here), solved as one
+        batch of load cases (:meth:`Mechanism.solve_many`, warm-started along a path through
+        the directions, so neighbouring directions share their contact set)."""
+        directions = np.atleast_2d(np.asarray(directions, dtype=float))
+        directions = directions / np.linalg.norm(directions, axis=1)[:, None]
+        if directions.shape[0] == 0:
+            return SupportValues(directions, np.zeros(0), np.zeros((0, 3)), ())
+        order = _path(directions)
+        cases = [[self.load(directions[i])] for i in order]
+        options: dict[str, Any] = {"gravity": False, "exact": self.exact}
+        if self.q is not None:
+            options["configurations"] = [self.q] * len(cases)
+        batch: Sequence[Any] = self.mechanism.solve_many(cases, **options)
+        states: list[Any] = [None] * len(order)
+        for position, index in enumerate(order):
+            state = batch[position]
+            if not state.ok:
+                raise SolverError(
+                    f"envelope of {self.output.name!r}: the equilibrium under a unit "
+                    f"{'force' if self.kind == 'translation' else 'torque'} along "
+                    f"{np.round(directions[index], 6).tolist()} did not verify",
+                    state.solver_status,
+                    dict(state.residuals.to_dict()),
+                )
+            states[index] = state
+        points = np.array([self.output.deviation(s, self.kind) for s in states])
+        self.evaluations += len(states)
+        values = np.einsum("ij,ij->i", directions, points)
+        return SupportValues(directions, values, points, tuple(states))
+
+
+def _path(directions: Vector) -> list[int]:
+    """An order of the directions in which each is near the previous one (greedy nearest
+    neighbour from the first; by longitude and latitude bands beyond 600 directions)."""
+    count = directions.shape[0]
+    if count <= 2:
+        return list(range(count))
+    if count > 600:
+        latitude = np.arcsin(np.clip(directions[:, 2], -1.0, 1.0))
+        longitude = np.arctan2(directions[:, 1], directions[:, 0])
+        band = np.floor((latitude + np.pi / 2) / (np.pi / 24)).astype(int)
+        serpentine = np.where(band % 2 == 0, longitude, -longitude)
+        return [int(i) for i in np.lexsort((serpentine, band))]
+    remaining = np.ones(count, dtype=bool)
+    order = [0]
+    remaining[0] = False
+    for _ in range(count - 1):
+        last = directions[order[-1]]
+        cosines = np.where(remaining, directions @ last, -np.inf)
+        nxt = int(np.argmax(cosines))
+        order.append(nxt)
+        remaining[nxt] = False
+    return order
