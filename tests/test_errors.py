@@ -64,7 +64,6 @@ def test_no_builtin_raise_in_the_package():
     assert _builtin_raises(_sources(False)) == []
 
 
-@pytest.mark.xfail(strict=True, reason="equilibrium/ and mechanism.py: being restructured")
 def test_no_builtin_raise_in_the_restructured_modules():
     assert _builtin_raises(_sources(True)) == []
 

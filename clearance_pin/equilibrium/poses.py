@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..errors import ArgumentError
+
 
 @dataclass(frozen=True)
 class ClearanceFrames:
@@ -44,9 +46,8 @@ def clearance_frames(equilibrium) -> dict[str, ClearanceFrames]:
     nominal = equilibrium.configuration
     placed = equilibrium.body_placements
     if len(placed) != model.njoints:
-        raise ValueError(
-            f"body_placements must hold {model.njoints} placements (one per Pinocchio joint), "
-            f"got {len(placed)}"
+        raise ArgumentError(
+            "body_placements", f"{model.njoints} placements (one per Pinocchio joint)", placed
         )
     frames = {}
     for joint in mechanism.tree_joints:

@@ -50,7 +50,7 @@ from types import SimpleNamespace
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ArgumentError, ClearancePinError
+from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.clearance import ALPHA, BETA, GAMMA
 from ..numerics import null_space
 from .load_terms import gather_body_loads
@@ -131,7 +131,7 @@ class JointReactions:
     def reaction(self, joint: str, frame: str = "joint") -> Reaction:
         """The :class:`Reaction` of ``joint`` in ``frame`` (``"joint"`` or ``"world"``)."""
         if joint not in self.contact:
-            raise ArgumentError("joint", f"one of the joints {', '.join(self.contact)}", joint)
+            raise NotFoundError("joint", joint, tuple(self.contact))
         if frame not in FRAMES:
             raise ArgumentError("frame", "'joint' or 'world'", frame)
         parts = [self.contact[joint], self.rigid[joint], self.drive[joint], self.held[joint]]

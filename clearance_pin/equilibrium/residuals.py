@@ -28,6 +28,8 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, fields
 
+from ..errors import NotFoundError
+
 STATICS_TOLERANCE = 1e-8
 FEASIBILITY_TOLERANCE = 1e-9
 DUAL_TOLERANCE = 1e-8
@@ -98,7 +100,7 @@ class Residuals(Mapping):
     def __getitem__(self, name: str) -> float:
         value = self._measured().get(name)
         if value is None:
-            raise KeyError(name)
+            raise NotFoundError("residual", name, tuple(self._measured()))
         return value
 
     def __iter__(self) -> Iterator[str]:
