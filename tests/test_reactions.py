@@ -22,9 +22,9 @@ from mechanism_strategies import mechanisms
 from oracle import Oracle, bounded_loads
 
 import clearance_pin
-from clearance_pin.errors import NotFoundError
 from clearance_pin import ClearancePinError, Gravity, PointForce, Torque
 from clearance_pin.equilibrium.poses import clearance_frames
+from clearance_pin.errors import NotFoundError
 
 MODELS = sorted((Path(__file__).resolve().parents[1] / "models").glob("*.urdf"))
 TOLERANCE = 1e-10  # of the load (the target)
