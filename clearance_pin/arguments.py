@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,14 +20,24 @@ from .errors import ArgumentError
 from .model import plausibility
 from .model.loads import Gravity, PointForce, Torque
 
+if TYPE_CHECKING:
+    from .mechanism import Mechanism
+
 LOAD_TYPES = (PointForce, Torque, Gravity)
 
 
-def _is_bool(value) -> bool:
+def _is_bool(value: object) -> bool:
     return isinstance(value, (bool, np.bool_))
 
 
-def check_options(exact, gravity, tol, backend, accuracy=1e-9, warm_start=True) -> None:
+def check_options(
+    exact: object,
+    gravity: object,
+    tol: object,
+    backend: object,
+    accuracy: object = 1e-9,
+    warm_start: object = True,
+) -> None:
     """The scalar options of a solve (see :meth:`Mechanism.solve` for their meaning)."""
     if not (_is_bool(exact) or (isinstance(exact, str) and exact == "auto")):
         raise ArgumentError("exact", "True, False or 'auto'", exact)
@@ -36,7 +47,7 @@ def check_options(exact, gravity, tol, backend, accuracy=1e-9, warm_start=True) 
         if (
             _is_bool(value)
             or not isinstance(value, numbers.Real)
-            or not (math.isfinite(value) and value > 0.0)
+            or not (math.isfinite(value) and float(value) > 0.0)
         ):
             raise ArgumentError(name, "a finite number > 0", value)
     if not (isinstance(backend, str) and backend in BACKENDS):
@@ -45,7 +56,7 @@ def check_options(exact, gravity, tol, backend, accuracy=1e-9, warm_start=True) 
         raise ArgumentError("warm_start", "True or False", warm_start)
 
 
-def check_loads(loads, argument: str = "loads") -> None:
+def check_loads(loads: object, argument: str = "loads") -> None:
     """``loads`` is None or a list (any iterable) of loads, not a single load nor a text."""
     if loads is None:
         return
@@ -59,7 +70,9 @@ def check_loads(loads, argument: str = "loads") -> None:
         raise ArgumentError(argument, "a list of PointForce, Torque or Gravity", loads)
 
 
-def check_configuration(mechanism, q, argument: str = "q", warn: bool = True):
+def check_configuration(
+    mechanism: Mechanism, q: object, argument: str = "q", warn: bool = True
+) -> np.ndarray | None:
     """``q`` as a float array (nq,), or None; warns when a value is outside the URDF limits.
 
     Raises:
@@ -90,14 +103,26 @@ def check_configuration(mechanism, q, argument: str = "q", warn: bool = True):
     return array
 
 
-def check_solve(mechanism, loads, exact, q, gravity, tol, backend, accuracy, warm_start):
+def check_solve(
+    mechanism: Mechanism,
+    loads: object,
+    exact: object,
+    q: object,
+    gravity: object,
+    tol: object,
+    backend: object,
+    accuracy: object,
+    warm_start: object,
+) -> np.ndarray | None:
     """Every argument of :meth:`Mechanism.solve`; returns ``q`` as an array (or None)."""
     check_options(exact, gravity, tol, backend, accuracy, warm_start)
     check_loads(loads)
     return check_configuration(mechanism, q)
 
 
-def check_solve_many(mechanism, loads, configurations, options: dict) -> None:
+def check_solve_many(
+    mechanism: Mechanism, loads: object, configurations: object, options: Mapping[str, object]
+) -> None:
     """The arguments of :meth:`Mechanism.solve_many`, before any case is solved (so that
     ``errors="return"`` does not turn a mistyped option into one error per case)."""
     check_options(

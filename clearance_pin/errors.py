@@ -9,6 +9,9 @@ Every warning it gives derives from :class:`ClearancePinWarning` (itself a ``Use
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
+from typing import Any, Self
+
 
 class ClearancePinError(Exception):
     """Base class of every error raised by clearance_pin."""
@@ -23,13 +26,13 @@ class ModelError(ClearancePinError, ValueError):
         problem: what is wrong, with the expected and the found value.
     """
 
-    def __init__(self, source: str, element: str, problem: str):
+    def __init__(self, source: str, element: str, problem: str) -> None:
         self.source = source
         self.element = element
         self.problem = problem
         super().__init__(f"{source}: {element}: {problem}")
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[Self], tuple[Any, ...]]:
         return (type(self), (self.source, self.element, self.problem))
 
 
@@ -43,7 +46,9 @@ class ArgumentError(ClearancePinError, ValueError):
         note: what is wrong with it, when its repr does not say (e.g. its shape), or None.
     """
 
-    def __init__(self, argument: str, expected: str, found, note: str | None = None):
+    def __init__(
+        self, argument: str, expected: str, found: object, note: str | None = None
+    ) -> None:
         self.argument = argument
         self.expected = expected
         self.found = found
@@ -51,11 +56,11 @@ class ArgumentError(ClearancePinError, ValueError):
         detail = f" ({note})" if note else ""
         super().__init__(f"{argument}: expected {expected}, found {_short_repr(found)}{detail}")
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[Self], tuple[Any, ...]]:
         return (type(self), (self.argument, self.expected, self.found, self.note))
 
 
-def _short_repr(value, limit: int = 80) -> str:
+def _short_repr(value: object, limit: int = 80) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
@@ -74,7 +79,14 @@ class NotFoundError(ClearancePinError, KeyError):
         hint: what else would be accepted, when the valid names do not say it all, or None.
     """
 
-    def __init__(self, kind: str, name, valid, where: str | None = None, hint: str | None = None):
+    def __init__(
+        self,
+        kind: str,
+        name: object,
+        valid: Iterable[object],
+        where: str | None = None,
+        hint: str | None = None,
+    ) -> None:
         self.kind = kind
         self.name = name
         self.valid = tuple(valid)
@@ -90,7 +102,7 @@ class NotFoundError(ClearancePinError, KeyError):
     def __str__(self) -> str:  # KeyError's own str() would quote the message
         return str(self.args[0])
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[Self], tuple[Any, ...]]:
         return (type(self), (self.kind, self.name, self.valid, self.where, self.hint))
 
 
@@ -101,12 +113,12 @@ def _plural(kind: str) -> str:
 class LoadError(ClearancePinError, ValueError):
     """A load is invalid (unknown link, non-finite value, wrong shape)."""
 
-    def __init__(self, load: str, problem: str):
+    def __init__(self, load: str, problem: str) -> None:
         self.load = load
         self.problem = problem
         super().__init__(f"load {load}: {problem}")
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[Self], tuple[Any, ...]]:
         return (type(self), (self.load, self.problem))
 
 
@@ -118,7 +130,7 @@ class UnboundedLoadError(ClearancePinError):
         fraction: share of the (scaled) load that works along the unblocked motion, in [0, 1].
     """
 
-    def __init__(self, motions: list[str], fraction: float):
+    def __init__(self, motions: list[str], fraction: float) -> None:
         self.motions = motions
         self.fraction = fraction
         listed = "; ".join(motions)
@@ -128,7 +140,7 @@ class UnboundedLoadError(ClearancePinError):
             "missing joint, or remove that load component."
         )
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[Self], tuple[Any, ...]]:
         return (type(self), (self.motions, self.fraction))
 
 
@@ -137,7 +149,7 @@ class SolverError(ClearancePinError):
 
     Attributes:
         status: the solver's status string.
-        residuals: dict of the residuals we measured (feasibility [m], stationarity, ...).
+        residuals: dict (a copy) of the residuals we measured (feasibility [m], stationarity, ...).
         answer: the unverified answer (the :class:`~clearance_pin.Equilibrium` that failed
             verification), to inspect or use at one's own risk; None when there is none.
     """
@@ -146,9 +158,9 @@ class SolverError(ClearancePinError):
         self,
         message: str,
         status: str,
-        residuals: dict[str, float] | None = None,
-        answer=None,
-    ):
+        residuals: Mapping[str, float] | None = None,
+        answer: Any = None,
+    ) -> None:
         self.message = message
         self.status = status
         self.residuals = dict(residuals or {})
@@ -156,7 +168,7 @@ class SolverError(ClearancePinError):
         detail = ", ".join(f"{k}={v:.3g}" for k, v in self.residuals.items())
         super().__init__(f"{message} (status: {status}{'; ' + detail if detail else ''})")
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[Self], tuple[Any, ...]]:
         return (type(self), (self.message, self.status, self.residuals, self.answer))
 
 

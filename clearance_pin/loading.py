@@ -10,10 +10,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from .mechanism import Mechanism
-from .model.model_file import read_file, read_text
+from .model.model_file import PackageDirs, read_file, read_text
 
 
-def load(path: str | Path, package_dirs=None) -> Mechanism:
+def load(path: str | Path, package_dirs: PackageDirs = None) -> Mechanism:
     """Read a mechanism from a model file (URDF + ``<clearance_pin>``).
 
     Args:
@@ -34,7 +34,10 @@ def load(path: str | Path, package_dirs=None) -> Mechanism:
 
 
 def loads(
-    text: str | bytes, source: str = "<string>", mesh_dir: Path | None = None, package_dirs=None
+    text: str | bytes,
+    source: str = "<string>",
+    mesh_dir: Path | None = None,
+    package_dirs: PackageDirs = None,
 ) -> Mechanism:
     """Read a mechanism from the text of a model file (see :func:`load`).
 

@@ -15,7 +15,7 @@ class Progress:
         enabled: None: only when stderr is a terminal; True/False to force.
     """
 
-    def __init__(self, total: int, label: str = "", enabled: bool | None = None):
+    def __init__(self, total: int, label: str = "", enabled: bool | None = None) -> None:
         self.total = max(int(total), 1)
         self.label = label
         self.enabled = sys.stderr.isatty() if enabled is None else enabled

@@ -70,22 +70,30 @@ class StateSpace:
         contacts: the contact points with play.
         output_maps: ``"translation"`` -> $G_t$ (3, n) [m], ``"rotation"`` -> $G_r$ (3, n) [rad].
         free: $K$, (n, f): orthonormal basis of the motions no contact sees.
+        scales: per kind, the deviation of a motion of the size of the play: $c$ [m] for a
+            translation, $c / L_{ref}$ [rad] for a rotation.
     """
 
     size: int
     contacts: tuple[ContactRows, ...]
     output_maps: dict[str, Matrix]
     free: Matrix
+    scales: dict[str, float]
 
     def free_directions(self, kind: Kind) -> Matrix:
         """Orthonormal basis (3, f) of $F$: the output directions a free motion moves."""
-        return _range(self.output_maps[kind] @ self.free, self.output_maps[kind])
+        return _range(self.output_maps[kind] @ self.free, self._scale(kind))
 
     def bounded_span(self, kind: Kind) -> Matrix:
         """Orthonormal basis (3, k) of $B$: the directions the play bounds (off $F$)."""
         free = self.free_directions(kind)
         projected = self.output_maps[kind] - free @ (free.T @ self.output_maps[kind])
-        return _range(projected, self.output_maps[kind])
+        return _range(projected, self._scale(kind))
+
+    def _scale(self, kind: Kind) -> float:
+        """What a singular value of the output map is compared with: the larger of its own
+        largest and the kind's play scale (round-off of a part that does not move stays below)."""
+        return max(float(np.linalg.norm(self.output_maps[kind], 2)), self.scales[kind])
 
     def projected_map(self, kind: Kind, basis: Matrix) -> Matrix:
         """$B^T G$ (k, n): the output deviation in the coordinates of ``basis`` (3, k), with the
@@ -94,14 +102,13 @@ class StateSpace:
         return np.asarray(basis.T @ (g - (g @ self.free) @ self.free.T), dtype=float)
 
 
-def _range(matrix: Matrix, reference: Matrix) -> Matrix:
+def _range(matrix: Matrix, scale: float) -> Matrix:
     """Orthonormal basis of the range of ``matrix`` (3, m): left singular vectors above
-    :data:`SPAN_RTOL` times the largest singular value of ``reference``."""
+    :data:`SPAN_RTOL` times ``scale``."""
     if matrix.size == 0:
         return np.zeros((matrix.shape[0], 0))
     u, s, _ = np.linalg.svd(matrix, full_matrices=False)
-    scale = np.linalg.norm(reference, 2) if reference.size else 0.0
-    keep = s > SPAN_RTOL * scale if scale > 0.0 else np.zeros(s.shape, dtype=bool)
+    keep = s > SPAN_RTOL * scale
     return np.asarray(u[:, keep], dtype=float)
 
 
@@ -194,7 +201,7 @@ def build_state_space(mechanism: Any, configuration: Any, output: Output) -> Sta
     )
     n = closure.shape[1]
     seen = np.vstack([c.rows / c.bound for c in contacts]) if contacts else np.zeros((0, n))
-    free = _null_space(seen * (play if contacts else 1.0), n)
+    free = _null_space(seen, n)
     twist = twists[output.body] @ closure
     translation = twist[:3] - _skew(output.position) @ twist[3:]
     return StateSpace(
@@ -202,4 +209,5 @@ def build_state_space(mechanism: Any, configuration: Any, output: Output) -> Sta
         contacts=contacts,
         output_maps={"translation": translation, "rotation": twist[3:].copy()},
         free=free,
+        scales={"translation": play, "rotation": play / length},
     )

@@ -20,13 +20,15 @@ torque (docs/method.md section 4), near the linear state.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from ..equilibrium.batch import BATCH_MINIMUM
 from ..errors import SolverError
 from ..model.loads import PointForce, Torque
 from .output import Kind, Output
@@ -71,6 +73,8 @@ class SupportFunction:
         self.q = q
         self.exact = exact
         self.evaluations = 0
+        self._batch_rate = 0.0  # seconds per case of the last batch (0: not tried yet)
+        self._run_rate = math.inf  # seconds per case in short runs (inf: not measured yet)
 
     def load(self, direction: Vector) -> PointForce | Torque:
         """The unit load along ``direction`` (1 N at the output point, or 1 N m on its link)."""
@@ -88,13 +92,10 @@ class SupportFunction:
             return SupportValues(directions, np.zeros(0), np.zeros((0, 3)), ())
         order = _path(directions)
         cases = [[self.load(directions[i])] for i in order]
-        options: dict[str, Any] = {"gravity": False, "exact": self.exact}
-        if self.q is not None:
-            options["configurations"] = [self.q] * len(cases)
-        batch: Sequence[Any] = self.mechanism.solve_many(cases, **options)
+        solved = self._solve(cases)
         states: list[Any] = [None] * len(order)
         for position, index in enumerate(order):
-            state = batch[position]
+            state = solved[position]
             if not state.ok:
                 raise SolverError(
                     f"envelope of {self.output.name!r}: the equilibrium under a unit "
@@ -108,6 +109,32 @@ class SupportFunction:
         self.evaluations += len(states)
         values = np.einsum("ij,ij->i", directions, points)
         return SupportValues(directions, values, points, tuple(states))
+
+    def _solve(self, cases: list[list[PointForce | Torque]]) -> list[Any]:
+        """The equilibria of ``cases`` by :meth:`Mechanism.solve_many`: as one batch (stacked
+        Newton over the cases that share a contact set), or in runs shorter than the batch
+        minimum (each case warm-started from the previous one) once a batch has cost more per
+        case than such runs (a running comparison of the two, per support function)."""
+        options: dict[str, Any] = {"gravity": False, "exact": self.exact}
+        batched = len(cases) >= BATCH_MINIMUM and not self.exact and self.q is None
+        if batched and self._batch_rate <= 1.5 * self._run_rate:
+            start = time.perf_counter()
+            items = list(self.mechanism.solve_many(cases, **options))
+            self._batch_rate = (time.perf_counter() - start) / len(cases)
+            return items
+        items = []
+        start = time.perf_counter()
+        run = BATCH_MINIMUM - 1
+        for first in range(0, len(cases), run):
+            chunk = cases[first : first + run]
+            if self.q is not None:
+                options["configurations"] = [self.q] * len(chunk)
+            items.extend(self.mechanism.solve_many(chunk, **options))
+        rate = (time.perf_counter() - start) / len(cases)
+        self._run_rate = rate if not math.isfinite(self._run_rate) else 0.5 * (self._run_rate + rate)
+        if batched:  # let the batch try again after a while
+            self._batch_rate *= 0.8
+        return items
 
 
 def _path(directions: Vector) -> list[int]:

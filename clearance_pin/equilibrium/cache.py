@@ -38,6 +38,7 @@ class SolveCache:
         exact_problems: key -> built :class:`.exact.ExactProblem`.
         backends: (backend name, signature, tol) -> built optimiser.
         check_shapes: coal shapes of the geometric check, built once.
+        output_points: (loaded points, outputs asked for) -> the output points of a solve.
     """
 
     def __init__(self, model: pin.Model):
@@ -53,6 +54,7 @@ class SolveCache:
         self.exact_problems: dict[tuple, Any] = {}
         self.backends: dict[tuple, Any] = {}
         self.check_shapes: dict[Any, Any] = {}
+        self.output_points: dict[tuple, tuple] = {}
 
     @property
     def data(self) -> pin.Data:

@@ -42,7 +42,11 @@ class BodyLoad:
 
 
 def gather_body_loads(
-    model: pin.Model, placed, loads: tuple[Load, ...], link_frames: dict[str, int]
+    model: pin.Model,
+    placed,
+    loads: tuple[Load, ...],
+    link_frames: dict[str, int],
+    memo: dict | None = None,
 ) -> dict[int, BodyLoad]:
     """Gather loads per body at a configuration: the one gathering of loads of both models.
 
@@ -50,48 +54,87 @@ def gather_body_loads(
         placed: anything with ``oMi``, the world placement of every joint frame (a
             :class:`~clearance_pin.mechanism.Configuration`, a placed ``pin.Data``).
         link_frames: URDF link name -> Pinocchio BODY frame id.
+        memo: a dict kept by the caller for one configuration (the placements of the loaded
+            links and of the bodies' centres of mass are read from it after the first call).
     """
+    memo = {} if memo is None else memo
     acc: dict[int, list[np.ndarray]] = {}
 
     def entry(body: int) -> list[np.ndarray]:
-        return acc.setdefault(body, [np.zeros(3), np.zeros((3, 3)), np.zeros(3), np.zeros(6)])
+        slot = acc.get(body)
+        if slot is None:
+            slot = acc[body] = [np.zeros(3), np.zeros((3, 3)), np.zeros(3), np.zeros(6)]
+        return slot
 
     for load in loads:
         if isinstance(load, Gravity):
-            for body in range(1, model.njoints):
-                inertia = model.inertias[body]
-                if inertia.mass > 0.0:
-                    _add_force(
-                        entry(body),
-                        placed.oMi[body],
-                        inertia.lever,
-                        inertia.mass * load.acceleration,
-                    )
+            for body, mass, lever, rotation, origin in _masses(model, placed, memo):
+                _add_force(entry(body), rotation, origin, lever, mass * load.acceleration)
             continue
-        if load.link not in link_frames:
-            known = ", ".join(sorted(link_frames))
-            raise LoadError(f"on {load.link!r}", f"unknown link; the model's links are: {known}")
-        frame = model.frames[link_frames[load.link]]
-        body = frame.parentJoint
-        if body == 0:
+        placement = _link(model, placed, load.link, link_frames, memo)
+        if placement is None:
             continue  # a load on the fixed ground does no work
+        body, frame_rotation, frame_origin, rotation, origin = placement
         if isinstance(load, PointForce):
-            point_in_body = frame.placement.act(np.asarray(load.point))
-            _add_force(entry(body), placed.oMi[body], point_in_body, np.asarray(load.force))
+            point_in_body = frame_rotation @ load.point + frame_origin
+            _add_force(entry(body), rotation, origin, point_in_body, load.force)
         elif isinstance(load, Torque):
             slot = entry(body)
             slot[2] += load.torque
             slot[3][3:] += load.torque
-    return {
-        body: BodyLoad(body, f.copy(), g.copy(), c.copy(), w.copy())
-        for body, (f, g, c, w) in acc.items()
-    }
+    return {body: BodyLoad(body, f, g, c, w) for body, (f, g, c, w) in acc.items()}
+
+
+def _link(model, placed, link: str, link_frames: dict[str, int], memo: dict):
+    """(body, R, t of the link frame in the body, R, t of the body in the world), None on the
+    ground; memoised."""
+    key = ("link", link)
+    if key not in memo:
+        if link not in link_frames:
+            known = ", ".join(sorted(link_frames))
+            raise LoadError(f"on {link!r}", f"unknown link; the model's links are: {known}")
+        frame = model.frames[link_frames[link]]
+        body = frame.parentJoint
+        memo[key] = (
+            None
+            if body == 0
+            else (
+                body,
+                frame.placement.rotation.copy(),
+                frame.placement.translation.copy(),
+                placed.oMi[body].rotation.copy(),
+                placed.oMi[body].translation.copy(),
+            )
+        )
+    return memo[key]
+
+
+def _masses(model, placed, memo: dict) -> list:
+    """(body, mass [kg], centre of mass in the body [m], R, t of the body) of every body with
+    mass; memoised."""
+    if "masses" not in memo:
+        memo["masses"] = [
+            (
+                body,
+                model.inertias[body].mass,
+                np.array(model.inertias[body].lever),
+                placed.oMi[body].rotation.copy(),
+                placed.oMi[body].translation.copy(),
+            )
+            for body in range(1, model.njoints)
+            if model.inertias[body].mass > 0.0
+        ]
+    return memo["masses"]
 
 
 def _add_force(
-    slot: list[np.ndarray], oMb: pin.SE3, point_in_body: np.ndarray, force: np.ndarray
+    slot: list[np.ndarray],
+    rotation: np.ndarray,
+    origin: np.ndarray,
+    point_in_body: np.ndarray,
+    force: np.ndarray,
 ) -> None:
-    world_point = oMb.act(point_in_body)
+    world_point = rotation @ point_in_body + origin
     slot[0] += force
     slot[1] += np.outer(force, point_in_body)
     slot[3][:3] += force

@@ -61,7 +61,32 @@ def load_point_name(load: PointForce) -> str:
 
 def resolve_outputs(mechanism, loads=(), outputs=None) -> tuple[OutputPoint, ...]:
     """The output points of a solve: the loaded points, then ``outputs`` (Pinocchio frame names;
-    default: the leaf links). Raises ArgumentError naming an unknown frame and the valid ones."""
+    default: the leaf links). Raises ArgumentError naming an unknown frame and the valid ones.
+
+    Kept per mechanism for the same loaded points and outputs (a planner re-solving with new load
+    values asks for the same points every time)."""
+    try:
+        key = (
+            tuple(
+                (load.link, tuple(map(float, load.point)) if isinstance(load, PointForce) else None)
+                for load in loads
+                if isinstance(load, (PointForce, Torque))
+            ),
+            outputs if outputs is None or isinstance(outputs, str) else tuple(outputs),
+        )
+        hash(key)
+    except TypeError:  # outputs of the wrong kind: refused, with its message, by _resolve
+        return _resolve(mechanism, loads, outputs)
+    kept = mechanism.cache.output_points
+    points = kept.get(key)
+    if points is None:
+        points = _resolve(mechanism, loads, outputs)
+        if len(kept) < 256:
+            kept[key] = points
+    return points
+
+
+def _resolve(mechanism, loads, outputs) -> tuple[OutputPoint, ...]:
     model = mechanism.model
     points: dict[str, OutputPoint] = {}
     for load in loads:

@@ -67,6 +67,7 @@ class PreparedGeometry:
         self._torsor_rows = np.vstack([maps.joint_torsor[name] for name in self.terms.joint_names])
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
+        self._placements: dict = {}  # loaded links and masses at this configuration (load_terms)
 
     @property
     def signature(self) -> tuple:
@@ -99,7 +100,8 @@ class PreparedGeometry:
         from the one gathering of loads per body (:func:`~.load_terms.gather_body_loads`)."""
         wrench = np.zeros((self.bodies, 6))
         model, links = self.mechanism.model, self.mechanism.link_frames
-        for body, load in gather_body_loads(model, self.configuration, loads, links).items():
+        gathered = gather_body_loads(model, self.configuration, loads, links, self._placements)
+        for body, load in gathered.items():
             wrench[body] = load.wrench
         return wrench
 
@@ -238,7 +240,10 @@ class PreparedGeometry:
         _, gradients = stack.evaluate(y, signs)
         rows = np.vstack([gradients[loaded], stack.hessian(multipliers)])
         scale = max(1.0, float(np.abs(rows).max(initial=0.0)))
-        flat = null_space(rows / scale, rtol=1e-9) if rows.size else np.eye(stack.size)
+        rows = rows / scale
+        if rows.size and _surely_full_rank(rows, 1e-9):
+            return np.zeros((stack.size, 0)), ()
+        flat = null_space(rows, rtol=1e-9) if rows.size else np.eye(stack.size)
         if not flat.shape[1]:
             return flat, ()
         descriptions = LazySequence(
@@ -389,3 +394,20 @@ def linear_setup(mechanism, loads, q):
     configuration = prepared.configuration
     body_loads = gather_body_loads(mechanism.model, configuration, loads, mechanism.link_frames)
     return configuration, prepared.maps, body_loads, prepared.problem(loads)
+
+
+def _surely_full_rank(rows: np.ndarray, rtol: float) -> bool:
+    r"""True when every singular value of ``rows`` (k, r) surely exceeds ``rtol`` of the largest,
+    decided without an SVD: a Cholesky factor of :math:`R^T R - t I` exists with
+    :math:`t = \rho^2 \|R\|_F^2 \ge (\rho\, \sigma_{max})^2`, :math:`\rho = \max(rtol, 10^{-6})`
+    (every squared singular value above t). Forming :math:`R^T R` squares the ratios of the
+    singular values, so the test resolves no ratio below 1e-6 (1e-12 squared, well above the
+    round-off of the product); smaller ones give False: "maybe not", ask the SVD."""
+    ratio = max(rtol, 1e-6)
+    gram = rows.T @ rows
+    shift = ratio * ratio * float(np.trace(gram))
+    try:
+        np.linalg.cholesky(gram - shift * np.eye(gram.shape[0]))
+    except np.linalg.LinAlgError:
+        return False
+    return True

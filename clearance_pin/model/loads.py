@@ -16,13 +16,15 @@ from __future__ import annotations
 import functools
 import inspect
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ArgumentError, LoadError
 
 
-def _vector3(label: str, name: str, value) -> np.ndarray:
+def _vector3(label: str, name: str, value: object) -> np.ndarray:
     try:
         array = np.array(value, dtype=float).reshape(-1)
     except (TypeError, ValueError) as exc:
@@ -35,7 +37,10 @@ def _vector3(label: str, name: str, value) -> np.ndarray:
     return array
 
 
-def _checked_arguments(cls):
+_Load = TypeVar("_Load")
+
+
+def _checked_arguments(cls: type[_Load]) -> type[_Load]:
     """Make the dataclass's ``__init__`` raise :class:`ArgumentError` naming the valid arguments
     (instead of Python's TypeError) for a missing, extra or unknown one, e.g. ``Torque(value=...)``."""
     init = cls.__init__
@@ -43,7 +48,7 @@ def _checked_arguments(cls):
     valid = [name for name in signature.parameters if name != "self"]
 
     @functools.wraps(init)
-    def checked(self, *args, **kwargs):
+    def checked(self: object, *args: Any, **kwargs: Any) -> None:
         try:
             signature.bind(self, *args, **kwargs)
         except TypeError as exc:
@@ -59,11 +64,11 @@ def _checked_arguments(cls):
             ) from None
         init(self, *args, **kwargs)
 
-    cls.__init__ = checked
+    cls.__init__ = checked  # type: ignore[method-assign]  # the class's own, wrapped
     return cls
 
 
-def _check_link(kind: str, link) -> None:
+def _check_link(kind: str, link: object) -> None:
     if not isinstance(link, str) or not link:
         raise ArgumentError(f"{kind}(link)", "a link name (a non-empty str)", link)
 
@@ -75,7 +80,11 @@ class PointForce:
 
     link: str
     force: np.ndarray
-    point: np.ndarray = (0.0, 0.0, 0.0)
+    point: np.ndarray = (0.0, 0.0, 0.0)  # type: ignore[assignment]  # an array after __post_init__
+
+    if TYPE_CHECKING:  # the arguments are any 3 numbers; the fields are read-only float arrays
+
+        def __init__(self, link: str, force: ArrayLike, point: ArrayLike = ...) -> None: ...
 
     def __post_init__(self) -> None:
         _check_link("PointForce", self.link)
@@ -92,6 +101,10 @@ class Torque:
     link: str
     torque: np.ndarray
 
+    if TYPE_CHECKING:
+
+        def __init__(self, link: str, torque: ArrayLike) -> None: ...
+
     def __post_init__(self) -> None:
         _check_link("Torque", self.link)
         object.__setattr__(
@@ -104,7 +117,11 @@ class Torque:
 class Gravity:
     """Gravity acting on every body's URDF inertial: acceleration [m/s^2] in world axes."""
 
-    acceleration: np.ndarray = (0.0, 0.0, -9.81)
+    acceleration: np.ndarray = (0.0, 0.0, -9.81)  # type: ignore[assignment]  # see PointForce
+
+    if TYPE_CHECKING:
+
+        def __init__(self, acceleration: ArrayLike = ...) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(

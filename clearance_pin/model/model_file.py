@@ -20,8 +20,10 @@ import os
 import re
 import xml.etree.ElementTree as ET
 import xml.parsers.expat
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeAlias
 
 import numpy as np
 import pinocchio as pin
@@ -69,6 +71,10 @@ IDEAL_KIND_OF_URDF = {
 }
 
 
+# package_dirs of clearance_pin.load: one directory, or a list of them
+PackageDirs: TypeAlias = str | os.PathLike[str] | Iterable[str | os.PathLike[str]] | None
+
+
 @dataclass(frozen=True)
 class MechanismDescription:
     """What a model file describes: the arguments of a
@@ -91,7 +97,7 @@ class MechanismDescription:
         return {f: getattr(self, f) for f in self.__dataclass_fields__}
 
 
-def read_file(path: str | Path, package_dirs=None) -> MechanismDescription:
+def read_file(path: str | Path, package_dirs: PackageDirs = None) -> MechanismDescription:
     """Read a model file (URDF + ``<clearance_pin>``); the arguments are those of
     :func:`clearance_pin.load`, which builds the mechanism from the description."""
     if not isinstance(path, (str, os.PathLike)):

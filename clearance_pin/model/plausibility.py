@@ -23,13 +23,16 @@ from __future__ import annotations
 import itertools
 import math
 import warnings
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Protocol
 
 import numpy as np
 import pinocchio as pin
 
 from ..errors import SuspectValueWarning
 from .clearance import ALPHA
-from .joints import MOTION_COMPONENT_BY_PIN_JOINT
+from .dimensions import Dimension
+from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint
 
 CLEARANCE_FRACTION = 0.05  # of the part's size; real plays are 1e-4 .. 1e-2 of it
 ROUND_OFF_SIZE = 1e-9  # of the length scale: distances below it are round-off, not a size
@@ -39,12 +42,27 @@ TURN = 2.0 * math.pi  # [rad]
 LIMIT_SLACK = 1e-9  # [rad or m] round-off allowed on the URDF limits
 
 
+class Checked(Protocol):
+    """What these checks read of a :class:`~clearance_pin.mechanism.Mechanism` (the model layer
+    does not import it)."""
+
+    @property
+    def model(self) -> pin.Model: ...
+    @property
+    def source(self) -> str: ...
+    @property
+    def loop_joints(self) -> Sequence[LoopJoint]: ...
+    @property
+    def joints(self) -> Mapping[str, TreeJoint | LoopJoint]: ...
+    def length_scale(self) -> float: ...
+
+
 def _warn(message: str, stacklevel: int) -> None:
     """``stacklevel`` as the public function's: 1 is that function, 2 its caller."""
     warnings.warn(SuspectValueWarning(message), stacklevel=stacklevel + 1)
 
 
-def joint_centres(mechanism, body: int) -> list[np.ndarray]:
+def joint_centres(mechanism: Checked, body: int) -> list[np.ndarray]:
     """Joint centres [m] on one body, in its joint frame: its own tree joint's origin, the origins
     of the tree joints it carries and the frames of the loop joints that end on it."""
     model = mechanism.model
@@ -60,7 +78,7 @@ def joint_centres(mechanism, body: int) -> list[np.ndarray]:
     return centres
 
 
-def part_size(mechanism, joint) -> float:
+def part_size(mechanism: Checked, joint: TreeJoint | LoopJoint) -> float:
     """Size [m] against which a joint's clearance is judged: the largest of its length and the
     distances between the joint centres of either part it joins (0 when none is known)."""
     model = mechanism.model
@@ -78,7 +96,7 @@ def part_size(mechanism, joint) -> float:
     return size if size > ROUND_OFF_SIZE * mechanism.length_scale() else 0.0
 
 
-def warn_large_clearances(mechanism, stacklevel: int = 2) -> None:
+def warn_large_clearances(mechanism: Checked, stacklevel: int = 2) -> None:
     """Warn for every joint whose largest play exceeds CLEARANCE_FRACTION of its part's size."""
     for joint in mechanism.joints.values():
         play = joint.clearance.max_play
@@ -133,7 +151,12 @@ def configuration_values(model: pin.Model, q: np.ndarray) -> dict[int, float]:
     }
 
 
-def warn_nominal_values(mechanism, values: dict[int, float], source=None, stacklevel=2) -> None:
+def warn_nominal_values(
+    mechanism: Checked,
+    values: Mapping[int, float],
+    source: str | None = None,
+    stacklevel: int = 2,
+) -> None:
     """Warn for every nominal value outside its joint's URDF limits, or beyond a turn.
 
     Args:
@@ -151,7 +174,9 @@ def warn_nominal_values(mechanism, values: dict[int, float], source=None, stackl
             )
 
 
-def warn_wide_tolerances(mechanism, dimensions, stacklevel: int = 2) -> None:
+def warn_wide_tolerances(
+    mechanism: Checked, dimensions: Iterable[Dimension], stacklevel: int = 2
+) -> None:
     """Warn for every dimension whose half tolerance is not small against its size."""
     for dimension in dimensions:
         half = dimension.half_tolerance
