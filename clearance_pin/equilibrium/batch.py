@@ -10,6 +10,7 @@ each, so warm starts still chain inside a chunk.
 from __future__ import annotations
 
 import itertools
+import time
 from collections.abc import Sequence
 from concurrent.futures import Executor
 from dataclasses import replace
@@ -30,6 +31,7 @@ BATCH_MINIMUM = 16
 BATCH_MAX_SIZE = 48  # reduced unknowns beyond which cases are solved one by one (warm-started)
 RESIDUAL_NAMES = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
 REGROUP_ROUNDS = 4  # batched Newton rounds, each seeded by a single solve of a contact set
+PROBE = 16  # cases that show whether a batched round pays before the rest of it runs
 
 
 class EquilibriumBatch(Sequence):
@@ -202,7 +204,9 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     that fail the verification are regrouped: the first of them is solved alone and seeds the
     next batched round (at most :data:`REGROUP_ROUNDS`), and what is left is solved one by one.
     """
+    started = time.perf_counter()
     first = _solve_chunk(mechanism, cases[:1], options, errors)[0]
+    single = time.perf_counter() - started  # what a case costs outside the batch
     if isinstance(first, Exception) or first.status != "optimal":
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
     prepared = prepared_geometry(mechanism)
@@ -228,12 +232,13 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     seed = mechanism.cache.warm.get(prepared.signature)
     x_all = np.full((len(cases), prepared.size_x), np.nan)
     batched = np.zeros(len(cases), dtype=bool)
-    for _ in range(REGROUP_ROUNDS):
-        if seed is None or pending.size == 0:
-            break
+
+    def batched_round(group: np.ndarray) -> np.ndarray:
+        """Batched Newton from ``seed`` on the cases ``group``: the verified ones kept (their
+        answers assembled when read), their mask returned."""
         y, multipliers, verified, table = batched_newton(
             geometry.stack,
-            objectives[pending],
+            objectives[group],
             seed.y,
             seed.multipliers,
             seed.signs,
@@ -242,12 +247,12 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         verified = _unique(geometry.stack, seed, y, multipliers, verified)
         x = y @ prepared.x_from_y.T
         # the same independent checks as a single solve: statics in x, penetration
-        gaps, forces = prepared.contact_state(x, multipliers, seed.signs, sigmas[pending][:, None])
-        statics = prepared.statics_residual(gradients[pending], forces, load_sizes[pending])
+        gaps, forces = prepared.contact_state(x, multipliers, seed.signs, sigmas[group][:, None])
+        statics = prepared.statics_residual(gradients[group], forces, load_sizes[group])
         violation = np.maximum(-gaps / prepared.bounds, 0.0).max(axis=1, initial=0.0)
         verified &= (statics <= STATICS_TOLERANCE) & (violation <= FEASIBILITY_TOLERANCE)
         for k in np.flatnonzero(verified):
-            i = pending[k]
+            i = group[k]
             items[i] = _lazy_item(
                 prepared,
                 (gradients[i], objectives[i], sigmas[i], load_sizes[i], shares[i]),
@@ -257,11 +262,27 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
                 table[k],
                 mechanism.resolve_loads(cases[i][0], options["gravity"]),
             )
-        x_all[pending[verified]] = x[verified]
-        batched[pending[verified]] = True
+        x_all[group[verified]] = x[verified]
+        batched[group[verified]] = True
         bar.update(int(verified.sum()))
-        pending = pending[~verified]
-        if pending.size == 0:
+        return verified
+
+    for _ in range(REGROUP_ROUNDS):
+        if seed is None or pending.size == 0:
+            break
+        # never slower than a loop of single solves: a probe of the group shows whether the
+        # seed's contact set is shared widely enough for the batch to pay (loads so diverse
+        # that few share it are solved one by one)
+        probe_started = time.perf_counter()
+        done = batched_round(pending[:PROBE])
+        pays = time.perf_counter() - probe_started < single * done.sum()
+        left = [pending[:PROBE][~done]]
+        if pays and pending.size > PROBE:
+            left.append(pending[PROBE:][~batched_round(pending[PROBE:])])
+        elif pending.size > PROBE:
+            left.append(pending[PROBE:])
+        pending = np.concatenate(left)
+        if pending.size == 0 or not pays:
             break
         # the next group: seeded by a single solve of the first case left
         i = pending[0]
