@@ -14,8 +14,12 @@ $(BIN)/clearance-pin: pyproject.toml
 demo: $(BIN)/clearance-pin
 	$(BIN)/clearance-pin solve models/younes_sphere_cylinder.urdf --exact
 
-# one BLAS thread: the solver's matrices are small, and threads fight on a busy machine.
+# lint and types first (seconds), then the suite with one BLAS thread: the solver's matrices are
+# small, and threads fight on a busy machine.
 test: $(BIN)/clearance-pin
+	$(BIN)/ruff check clearance_pin tests benchmarks validation
+	$(BIN)/ruff format --check clearance_pin tests benchmarks validation
+	$(BIN)/mypy clearance_pin
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m pytest
 
 validate: $(BIN)/clearance-pin

@@ -8,6 +8,7 @@ file (docs/model-format.md), in SI units.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,16 +34,16 @@ def _attributes(joint: JointSpec) -> str:
     return text
 
 
-def _xyz(vector) -> str:
+def _xyz(vector: Iterable[float]) -> str:
     return " ".join(repr(float(v)) for v in vector)
 
 
 def shaft_urdf(
     first: JointSpec,
     second: JointSpec,
-    point=(0.0, 0.0, 0.0),
-    force=(0.0, 0.0, 0.0),
-    torque=(0.0, 0.0, 0.0),
+    point: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+    force: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+    torque: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
     name: str = "shaft",
 ) -> str:
     """URDF text of a shaft on two parallel joints with a force at ``point`` and a torque.

@@ -217,7 +217,7 @@ def _parse_one(source: str, element: ET.Element, model: pin.Model) -> Dimension:
                 label,
                 "ISO 286 grades apply to lengths, not to angles; give tolerance [rad]",
             )
-        grade = element.get("grade").strip().upper()
+        grade = element.get("grade", "").strip().upper()  # given: not empty
         try:
             tolerance = tolerance_m(grade, abs(nominal))
         except ToleranceInputError as exc:
@@ -254,7 +254,7 @@ def _tuple(v: np.ndarray) -> tuple[float, float, float]:
 def _joint_frame(source: str, label: str, model: pin.Model, joint: str) -> int:
     for kind in (pin.FrameType.JOINT, pin.FrameType.FIXED_JOINT):
         if model.existFrame(joint, kind):
-            frame_id = model.getFrameId(joint, kind)
+            frame_id = int(model.getFrameId(joint, kind))
             if frame_id > 0:
                 return frame_id
     known = [

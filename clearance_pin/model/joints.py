@@ -82,7 +82,8 @@ def rotation_x_to(axis: np.ndarray) -> np.ndarray:
         # near -x the formula below loses accuracy as 1 / (1 + c): turn half a revolution about
         # z first, then take the small rotation from x to the turned axis
         half_turn = np.diag([-1.0, -1.0, 1.0])
-        return half_turn @ _small_rotation_x_to(half_turn @ a)
+        turned: np.ndarray = half_turn @ _small_rotation_x_to(half_turn @ a)
+        return turned
     return _small_rotation_x_to(a)
 
 
@@ -91,7 +92,8 @@ def _small_rotation_x_to(a: np.ndarray) -> np.ndarray:
     c = float(a[0])
     k = np.array([0.0, -a[2], a[1]])  # x cross a
     kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + kx + kx @ kx / (1.0 + c)
+    rotation: np.ndarray = np.eye(3) + kx + kx @ kx / (1.0 + c)
+    return rotation
 
 
 MOTION_COMPONENT_BY_PIN_JOINT = {

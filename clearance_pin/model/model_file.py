@@ -20,17 +20,18 @@ import os
 import re
 import xml.etree.ElementTree as ET
 import xml.parsers.expat
-from collections.abc import Iterable
+from collections.abc import Container, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeAlias
+from typing import Any, TypeAlias
 
 import numpy as np
 import pinocchio as pin
+from numpy.typing import ArrayLike
 
 from ..errors import ArgumentError, LoadError, ModelError
 from .clearance import KINDS, Clearance, ideal
-from .dimensions import parse_dimensions
+from .dimensions import Dimension, parse_dimensions
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
 from .loads import Gravity, PointForce, Torque
 from .xml_values import number, vector
@@ -63,7 +64,7 @@ LOOP_ATTRIBUTES = {
     *CLEARANCE_ATTRIBUTES,
 }
 URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
-IDEAL_KIND_OF_URDF = {
+IDEAL_KIND_OF_URDF: dict[str | None, str] = {
     "revolute": "revolute",
     "continuous": "revolute",
     "prismatic": "prismatic",
@@ -81,18 +82,18 @@ class MechanismDescription:
     :class:`~clearance_pin.mechanism.Mechanism` (:func:`clearance_pin.load` builds it)."""
 
     model: pin.Model
-    tree_joints: tuple
-    loop_joints: tuple
+    tree_joints: tuple[TreeJoint, ...]
+    loop_joints: tuple[LoopJoint, ...]
     q_nominal: np.ndarray
-    loads: tuple
+    loads: tuple[PointForce | Torque, ...]
     gravity: Gravity | None
     source: str
     name: str
-    collision_model: object
-    dimensions: tuple
+    collision_model: CollisionGeometry | None
+    dimensions: tuple[Dimension, ...]
     nominal_given: dict[int, float]
 
-    def arguments(self) -> dict:
+    def arguments(self) -> dict[str, Any]:
         """Keyword arguments of the Mechanism constructor."""
         return {f: getattr(self, f) for f in self.__dataclass_fields__}
 
@@ -111,7 +112,10 @@ def read_file(path: str | Path, package_dirs: PackageDirs = None) -> MechanismDe
 
 
 def read_text(
-    text: str | bytes, source: str = "<string>", mesh_dir: Path | None = None, package_dirs=None
+    text: str | bytes,
+    source: str = "<string>",
+    mesh_dir: Path | None = None,
+    package_dirs: PackageDirs = None,
 ) -> MechanismDescription:
     """Read the text of a model file (see :func:`read_file`).
 
@@ -124,7 +128,9 @@ def read_text(
     return _read(text, source, mesh_dir, package_dirs)
 
 
-def _read(text, source: str, mesh_dir, package_dirs) -> MechanismDescription:
+def _read(
+    text: object, source: str, mesh_dir: Path | None, package_dirs: PackageDirs
+) -> MechanismDescription:
     if isinstance(text, (bytes, bytearray)):
         text = decode_xml(bytes(text), source)
     elif not isinstance(text, str):
@@ -169,7 +175,7 @@ _BOMS = (
 def decode_xml(data: bytes, source: str = "<string>") -> str:
     """The text of an XML document: decoded as its byte-order mark or its declaration says
     (UTF-8 without either), with the declaration removed (Pinocchio's parser reads UTF-8 text)."""
-    declared: list[str] = []
+    declared: list[str | None] = []
     parser = xml.parsers.expat.ParserCreate()
     parser.XmlDeclHandler = lambda version, encoding, standalone: declared.append(encoding)
     try:
@@ -189,7 +195,7 @@ def _without_declaration(text: str) -> str:
     return _DECLARATION.sub("", text, count=1)
 
 
-def _package_dirs(package_dirs) -> tuple[str, ...]:
+def _package_dirs(package_dirs: PackageDirs) -> tuple[str, ...]:
     """``package_dirs`` as a tuple of existing directories (one str or Path is one directory)."""
     if package_dirs is None:
         return ()
@@ -265,7 +271,7 @@ def _ros_package_path() -> list[str]:
 
 
 class _Reader:
-    def __init__(self, text: str, source: str):
+    def __init__(self, text: str, source: str) -> None:
         self.text = text
         self.source = source
         try:
@@ -274,7 +280,7 @@ class _Reader:
             raise ModelError(source, "<xml>", f"malformed XML: {exc}") from None
         if self.root.tag != "robot":
             raise ModelError(source, f"<{self.root.tag}>", "the root element must be <robot>")
-        self.urdf_joints = {}
+        self.urdf_joints: dict[str, ET.Element] = {}
         parents: dict[str, str] = {}
         for element in self.root.findall("joint"):
             name = element.get("name")
@@ -299,7 +305,7 @@ class _Reader:
 
     def _check_urdf_structure(self) -> None:
         """The URDF checks Pinocchio makes without naming the element (it prints to stderr)."""
-        links = set()
+        links: set[str] = set()
         for element in self.root.findall("link"):
             name = element.get("name")
             if not name:
@@ -347,7 +353,7 @@ class _Reader:
                 except ModelError as exc:
                     raise ModelError(self.source, label, f"<axis> {exc.problem}") from None
 
-    def _check_inertial(self, link: str, inertial) -> None:
+    def _check_inertial(self, link: str, inertial: ET.Element | None) -> None:
         """Numbers of a link's <inertial>, which urdfdom drops with only a message on stderr."""
         if inertial is None:
             return
@@ -394,7 +400,14 @@ class _Reader:
         return block
 
     # -- joints ---------------------------------------------------------------------------
-    def _named(self, element, allowed: set[str], taken, duplicate: str, missing: str):
+    def _named(
+        self,
+        element: ET.Element,
+        allowed: set[str],
+        taken: Container[str],
+        duplicate: str,
+        missing: str,
+    ) -> tuple[str, str]:
         """(label, name) of a joint element with known attributes and a new, non-empty name."""
         label = _label(element)
         _check_attributes(self.source, element, allowed)
@@ -405,11 +418,13 @@ class _Reader:
             raise ModelError(self.source, label, duplicate)
         return label, name
 
-    def tree_joints(self, model: pin.Model, block: ET.Element):
+    def tree_joints(
+        self, model: pin.Model, block: ET.Element
+    ) -> tuple[tuple[TreeJoint, ...], np.ndarray]:
         declared: dict[str, ET.Element] = {}
-        for element in block.findall("joint"):
+        for entry in block.findall("joint"):
             label, name = self._named(
-                element,
+                entry,
                 JOINT_ATTRIBUTES,
                 declared,
                 "declared twice",
@@ -430,7 +445,7 @@ class _Reader:
                     "two links into one body, so it cannot carry play. Give it type "
                     "'floating' (any play) or 'revolute' in the URDF.",
                 )
-            declared[name] = element
+            declared[name] = entry
         q = pin.neutral(model)
         joints = []
         self.nominal_given: dict[int, float] = {}  # joint id -> the file's q [rad or m]
@@ -480,7 +495,7 @@ class _Reader:
             joints.append(TreeJoint(name, joint_id, clearance, rotation_x_to(axis), motion, driven))
         return tuple(joints), q
 
-    def loop_joints(self, model: pin.Model, block: ET.Element):
+    def loop_joints(self, model: pin.Model, block: ET.Element) -> tuple[LoopJoint, ...]:
         joints = []
         names = set(model.names)
         for element in block.findall("loop_joint"):
@@ -520,7 +535,7 @@ class _Reader:
             joints.append(LoopJoint(name, frames[0], frames[1], clearance, rotation_x_to(axis)))
         return tuple(joints)
 
-    def _clearance(self, element, label: str, default_kind: str) -> Clearance:
+    def _clearance(self, element: ET.Element | None, label: str, default_kind: str) -> Clearance:
         if element is None or element.get("type") is None:
             if element is not None and any(
                 element.get(a) for a in (*CLEARANCE_ATTRIBUTES, "diametral_clearance")
@@ -530,7 +545,7 @@ class _Reader:
         kind = element.get("type")
         if kind not in KINDS:
             raise ModelError(self.source, label, f"unknown type {kind!r}; expected one of {KINDS}")
-        values = {}
+        values: dict[str, float] = {}
         for attribute, field_name in CLEARANCE_ATTRIBUTES.items():
             if element.get(attribute) is not None:
                 values[field_name] = _number(self.source, element, attribute, nonnegative=True)
@@ -560,16 +575,18 @@ class _Reader:
             raise ModelError(self.source, label, str(exc)) from None
 
     # -- loads ----------------------------------------------------------------------------
-    def loads(self, model: pin.Model, block: ET.Element):
+    def loads(
+        self, model: pin.Model, block: ET.Element
+    ) -> tuple[tuple[PointForce | Torque, ...], Gravity | None]:
         links = {f.name for f in model.frames if f.type == pin.FrameType.BODY}
-        loads = []
+        loads: list[PointForce | Torque] = []
         for element in block:
             label = _label(element)
             if element.tag not in ("force", "torque"):
                 continue
             _check_attributes(self.source, element, {"link", "point", "value"})
             link = element.get("link")
-            if link not in links:
+            if link is None or link not in links:
                 raise ModelError(
                     self.source,
                     label,
@@ -624,17 +641,17 @@ def _number(
 
 def _vector(
     source: str,
-    element,
+    element: ET.Element | None,
     attribute: str,
-    default=None,
+    default: ArrayLike | None = None,
     allow_zero: bool = False,
     label: str | None = None,
-):
+) -> np.ndarray:
     text = element.get(attribute) if element is not None else None
     return vector(source, label or _label(element), text, attribute, default, allow_zero)
 
 
-def _boolean(source: str, element, attribute: str, default: bool) -> bool:
+def _boolean(source: str, element: ET.Element | None, attribute: str, default: bool) -> bool:
     text = element.get(attribute) if element is not None else None
     if text is None:
         return default
@@ -645,7 +662,7 @@ def _boolean(source: str, element, attribute: str, default: bool) -> bool:
     raise ModelError(source, _label(element), f"{attribute}={text!r} must be true or false")
 
 
-def _pin_axis(pin_joint) -> np.ndarray:
+def _pin_axis(pin_joint: pin.JointModel) -> np.ndarray:
     """Unit axis of a 1-DOF Pinocchio joint, in its joint frame, from its motion subspace
     (works for every revolute and prismatic variant, unaligned and unbounded ones included)."""
     data = pin_joint.createData()
@@ -655,10 +672,13 @@ def _pin_axis(pin_joint) -> np.ndarray:
     pin_joint.calc(data, neutral)
     subspace = np.asarray(data.S).reshape(6, -1)[:, 0]
     axis = subspace[3:] if np.linalg.norm(subspace[3:]) > 0.5 else subspace[:3]
-    return axis / np.linalg.norm(axis)
+    unit: np.ndarray = axis / np.linalg.norm(axis)
+    return unit
 
 
-def _set_nominal(source, label, model, joint_id, q, value: float) -> None:
+def _set_nominal(
+    source: str, label: str, model: pin.Model, joint_id: int, q: np.ndarray, value: float
+) -> None:
     joint = model.joints[joint_id]
     if joint.nq == 1:
         q[joint.idx_q] = value

@@ -11,6 +11,7 @@ import math
 import xml.etree.ElementTree as ET
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 
@@ -42,7 +43,7 @@ def vector(
     label: str,
     text: str | None,
     attribute: str,
-    default=None,
+    default: ArrayLike | None = None,
     allow_zero: bool = False,
 ) -> np.ndarray:
     """The 3 finite numbers of an attribute's ``text`` (``default`` when it is absent; a zero
