@@ -59,7 +59,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> object:
     """Import the CasADi modules on first use: Pinocchio-only callers (loop closure) skip CasADi."""
     if name in _LAZY:
         return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -39,6 +38,8 @@ import pinocchio as pin
 from ..errors import ArgumentError, ModelError
 from .lie_casadi import (
     Placement,
+    PlacementLike,
+    SXLike,
     as_placement,
     as_sx,
     axis_angle_rotation,
@@ -90,13 +91,13 @@ def _joint_axis(model: pin.Model, index: int, kind: str) -> np.ndarray:
     has no ``axis`` binding in pin 4.1) the motion subspace ``S`` of ``joint.calc``.
     """
     if kind in _REVOLUTE | _REVOLUTE_UNBOUNDED | _PRISMATIC:
-        axis = np.zeros(3)
-        axis[_AXIS_INDEX[kind[-1]]] = 1.0
-        return axis
+        aligned = np.zeros(3)
+        aligned[_AXIS_INDEX[kind[-1]]] = 1.0
+        return aligned
     if kind not in _UNALIGNED:
         return np.zeros(3)
     joint = model.joints[index]
-    axis = getattr(joint.extract(), "axis", None)
+    axis: np.ndarray | None = getattr(joint.extract(), "axis", None)
     if axis is None:
         jdata = joint.createData()
         joint.calc(jdata, pin.neutral(model))
@@ -234,7 +235,9 @@ class CasadiKinematics:
             for f in model.frames
         ]
 
-    def joint_placements(self, q: Any, deltas: Mapping[int, Any] | None = None) -> list[Placement]:
+    def joint_placements(
+        self, q: SXLike, deltas: Mapping[int, PlacementLike] | None = None
+    ) -> list[Placement]:
         """``oMi`` (world placement of every joint frame), indices ``0..njoints-1``.
 
         ``q``: configuration (SX or numpy, size ``nq``). ``deltas``: optional
@@ -270,7 +273,7 @@ class CasadiKinematics:
         """``oMf`` for every frame of the model, in ``model.frames`` order."""
         return [self.frame_placement(joint_placements, f) for f in range(len(self.frames))]
 
-    def integrate(self, q: Any, v: Any) -> ca.SX:
+    def integrate(self, q: SXLike, v: SXLike) -> ca.SX:
         """Mirror of ``pin.integrate(model, q, v)`` (SX ``nq x 1``), see :func:`joint_integrate`."""
         q = as_sx(q, (self.nq, 1))
         v = as_sx(v, (self.nv, 1))

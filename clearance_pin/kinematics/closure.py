@@ -29,13 +29,23 @@ refused otherwise.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError
 from ..model.clearance import ALPHA, U
+from ..model.joints import LoopJoint
+
+if TYPE_CHECKING:
+    from ..mechanism import Mechanism
+
+#: per loop joint of a residual: the joint, its constrained torsor components, its clearance
+#: frame in the world (:func:`closure_residual`)
+Selection: TypeAlias = tuple[LoopJoint, list[int], pin.SE3]
 
 #: singular values of the scaled closure Jacobian below this fraction of the largest are idle
 IDLE_TOLERANCE = 1e-12
@@ -66,7 +76,7 @@ class PassiveMotion:
     column: np.ndarray
 
 
-def passive_motions(mechanism, in_loops_only: bool = True) -> tuple[PassiveMotion, ...]:
+def passive_motions(mechanism: Mechanism, in_loops_only: bool = True) -> tuple[PassiveMotion, ...]:
     """The passive motions of the tree joints (the unknowns of the loop closure).
 
     A 1-DOF joint contributes its own motion unless driven. A URDF floating joint contributes
@@ -84,7 +94,7 @@ def passive_motions(mechanism, in_loops_only: bool = True) -> tuple[PassiveMotio
     """
     model = mechanism.model
     supporting = _loop_supports(mechanism) if in_loops_only else None
-    motions = []
+    motions: list[PassiveMotion] = []
     for joint in mechanism.tree_joints:
         if supporting is not None and joint.joint_id not in supporting:
             continue
@@ -96,7 +106,7 @@ def passive_motions(mechanism, in_loops_only: bool = True) -> tuple[PassiveMotio
             column = np.zeros(model.nv)
             column[pin_joint.idx_v] = 1.0
             kind = "prismatic" if joint.motion_component == U else "revolute"
-            axis = tuple(float(a) for a in joint.rotation[:, 0])
+            axis = _triple(joint.rotation[:, 0])
             motions.append(
                 PassiveMotion(joint.joint_id, joint.motion_component, kind, axis, column)
             )
@@ -104,20 +114,24 @@ def passive_motions(mechanism, in_loops_only: bool = True) -> tuple[PassiveMotio
         if pin_joint.nv != 6:  # only free-flyers (URDF floating joints) have several motions
             continue
         for component in sorted(free):
-            axis = np.asarray(joint.rotation[:, component % 3], dtype=float)
+            direction = np.asarray(joint.rotation[:, component % 3], dtype=float)
             column = np.zeros(model.nv)
             start = pin_joint.idx_v + (0 if component < ALPHA else 3)
-            column[start : start + 3] = axis
+            column[start : start + 3] = direction
             kind = "prismatic" if component < ALPHA else "revolute"
             motions.append(
-                PassiveMotion(
-                    joint.joint_id, component, kind, tuple(float(a) for a in axis), column
-                )
+                PassiveMotion(joint.joint_id, component, kind, _triple(direction), column)
             )
     return tuple(motions)
 
 
-def passive_basis(mechanism, motions=None) -> np.ndarray:
+def _triple(vector: np.ndarray) -> tuple[float, float, float]:
+    return (float(vector[0]), float(vector[1]), float(vector[2]))
+
+
+def passive_basis(
+    mechanism: Mechanism, motions: Sequence[PassiveMotion] | None = None
+) -> np.ndarray:
     """The passive motions as columns of Pinocchio's velocity space, shape (nv, n_passive)."""
     motions = passive_motions(mechanism) if motions is None else motions
     if not motions:
@@ -125,11 +139,11 @@ def passive_basis(mechanism, motions=None) -> np.ndarray:
     return np.column_stack([m.column for m in motions])
 
 
-def passive_velocity_indices(mechanism) -> list[int]:
+def passive_velocity_indices(mechanism: Mechanism) -> list[int]:
     """Velocity indices of the 1-DOF tree joints that are neither driven nor locked by play
     (the 1-DOF passive joints; :func:`passive_motions` gives all the passive motions)."""
     model = mechanism.model
-    indices = []
+    indices: list[int] = []
     for joint in mechanism.tree_joints:
         pin_joint = model.joints[joint.joint_id]
         if joint.driven or joint.motion_component is None or pin_joint.nv != 1:
@@ -138,7 +152,7 @@ def passive_velocity_indices(mechanism) -> list[int]:
     return indices
 
 
-def _loop_supports(mechanism) -> set[int]:
+def _loop_supports(mechanism: Mechanism) -> set[int]:
     """Ids of the joints on the paths from the root to every loop frame."""
     model = mechanism.model
     supporting: set[int] = set()
@@ -149,9 +163,10 @@ def _loop_supports(mechanism) -> set[int]:
     return supporting
 
 
-def closure_residual(mechanism, data: pin.Data) -> tuple[np.ndarray, list]:
+def closure_residual(mechanism: Mechanism, data: pin.Data) -> tuple[np.ndarray, list[Selection]]:
     """Constrained components of every loop's frame mismatch, and their selection rows."""
-    values, selections = [], []
+    values: list[np.ndarray] = []
+    selections: list[Selection] = []
     for loop in mechanism.loop_joints:
         rotation = pin.SE3(loop.rotation, np.zeros(3))
         oMc = data.oMf[loop.frame_a] * rotation
@@ -174,7 +189,9 @@ def _axis_error(rotation: np.ndarray) -> np.ndarray:
     return np.array([-np.arctan2(moved[2], moved[0]), np.arctan2(moved[1], moved[0])])
 
 
-def closure_jacobian(mechanism, data: pin.Data, selections, basis: np.ndarray) -> np.ndarray:
+def closure_jacobian(
+    mechanism: Mechanism, data: pin.Data, selections: Sequence[Selection], basis: np.ndarray
+) -> np.ndarray:
     r"""Derivative of the residual rows by the passive motions, :math:`[\mathrm{Ad}(oM_c)^{-1}
     (J_b - J_a)]_{rows} B`, shape (n_rows, n_passive) [m or rad per unit motion] (first order,
     as the Gauss-Newton step needs); needs ``pin.computeJointJacobians`` in ``data``."""
@@ -188,24 +205,31 @@ def closure_jacobian(mechanism, data: pin.Data, selections, basis: np.ndarray) -
     return np.vstack(blocks) if blocks else np.zeros((0, basis.shape[1]))
 
 
-def idle_motion_count(mechanism) -> int:
+def idle_motion_count(mechanism: Mechanism) -> int:
     """Number of idle passive motions (seen by no loop), counted at the nominal configuration:
     the structural null space of the closure Jacobian (a rod between two ball joints spins
     freely). A configuration whose closure Jacobian loses more rank than this is singular."""
     owner = (mechanism.model, mechanism.tree_joints, mechanism.loop_joints)
-    cached = getattr(mechanism, "_idle_motions", None)
+    cached: tuple[tuple[object, ...], int] | None = getattr(mechanism, "_idle_motions", None)
     if cached is not None and all(a is b for a, b in zip(cached[0], owner)):
         return cached[1]
     data = mechanism.model.createData()
     motions = passive_motions(mechanism)
     length = max(mechanism.length_scale(), 1e-300)
     jacobian, _ = _scaled_jacobian(mechanism, data, mechanism.q_nominal, motions, length)
-    count = _gauss_newton_step(jacobian, np.zeros(jacobian.shape[0]))[1].shape[1]
-    mechanism._idle_motions = (owner, count)
+    count = int(_gauss_newton_step(jacobian, np.zeros(jacobian.shape[0]))[1].shape[1])
+    # kept on the mechanism, not in its SolveCache (issue 11: one owner of the solve state)
+    mechanism._idle_motions = (owner, count)  # type: ignore[attr-defined]
     return count
 
 
-def _scaled_jacobian(mechanism, data, q, motions, length):
+def _scaled_jacobian(
+    mechanism: Mechanism,
+    data: pin.Data,
+    q: np.ndarray,
+    motions: Sequence[PassiveMotion],
+    length: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """The dimensionless closure Jacobian A (rows weighted, unknowns scaled, divided by L) and
     the dimensionless residual at ``q``; needs nothing in ``data``."""
     model = mechanism.model
@@ -220,13 +244,18 @@ def _scaled_jacobian(mechanism, data, q, motions, length):
     return jacobian, residual * weights
 
 
-def _scaled_basis(mechanism, motions, length: float) -> np.ndarray:
+def _scaled_basis(
+    mechanism: Mechanism, motions: Sequence[PassiveMotion], length: float
+) -> np.ndarray:
     """B D: the passive motions per unit scaled unknown ([rad], or [L] for translations)."""
     basis = passive_basis(mechanism, motions)
-    return basis * np.array([length if m.kind == "prismatic" else 1.0 for m in motions])
+    scaled: np.ndarray = basis * np.array(
+        [length if m.kind == "prismatic" else 1.0 for m in motions]
+    )
+    return scaled
 
 
-def _velocity_scales(mechanism, length: float) -> np.ndarray:
+def _velocity_scales(mechanism: Mechanism, length: float) -> np.ndarray:
     """Per velocity index: 1 / L for translations, 1 for rotations (dimensionless distances)."""
     model = mechanism.model
     scales = np.ones(model.nv)
@@ -240,7 +269,7 @@ def _velocity_scales(mechanism, length: float) -> np.ndarray:
 
 
 def close_loops(
-    mechanism,
+    mechanism: Mechanism,
     q: np.ndarray,
     tol: float = 1e-15,
     max_iterations: int = 60,
@@ -288,7 +317,7 @@ def close_loops(
                 model, reference, q, scaled_basis, velocity_scale, step, idle
             )
         closed = residual_norm <= tol * max(length, 1.0)
-        stationary = closed or in_range <= STATIONARY_ANGLE * np.linalg.norm(scaled)
+        stationary = closed or bool(in_range <= STATIONARY_ANGLE * np.linalg.norm(scaled))
         # closed: only the idle motions may still move; else the least-squares step must vanish
         size = float(np.max(np.abs(gauge if closed else step + gauge), initial=0.0))
         if stationary and size <= STATIONARY_STEP:
@@ -304,7 +333,9 @@ def close_loops(
     return q
 
 
-def _gauss_newton_step(jacobian: np.ndarray, residual: np.ndarray):
+def _gauss_newton_step(
+    jacobian: np.ndarray, residual: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, float]:
     """Least-squares minimum-norm step ``-A^+ r``, the idle basis N (null space of A, columns)
     and the norm of the residual's part in the range of A (zero at a stationary point)."""
     n = jacobian.shape[1]
@@ -317,16 +348,27 @@ def _gauss_newton_step(jacobian: np.ndarray, residual: np.ndarray):
     return step, vt[rank:].T, float(np.linalg.norm(projected))
 
 
-def _idle_correction(model, reference, q, scaled_basis, velocity_scale, step, idle) -> np.ndarray:
+def _idle_correction(
+    model: pin.Model,
+    reference: np.ndarray,
+    q: np.ndarray,
+    scaled_basis: np.ndarray,
+    velocity_scale: np.ndarray,
+    step: np.ndarray,
+    idle: np.ndarray,
+) -> np.ndarray:
     r"""Idle coordinates y minimising :math:`\|S (q_{ref} \ominus (q \oplus B D (s + N y)))\|`
     to first order (``pin.dDifference``), so that idle motions stay nearest the reference."""
     gap = velocity_scale * pin.difference(model, reference, q)
     derivative = pin.dDifference(model, reference, q, pin.ArgumentPosition.ARG1)
     g = velocity_scale[:, None] * (derivative @ scaled_basis)
-    return np.linalg.lstsq(g @ idle, -(gap + g @ step), rcond=None)[0]
+    correction: np.ndarray = np.linalg.lstsq(g @ idle, -(gap + g @ step), rcond=None)[0]
+    return correction
 
 
-def _refuse_or_accept(mechanism, data, residual_norm: float, stationary: bool) -> None:
+def _refuse_or_accept(
+    mechanism: Mechanism, data: pin.Data, residual_norm: float, stationary: bool
+) -> None:
     """Accept a residual left at a stationary point when it is an admissible eccentricity
     (inside the play); raise ModelError naming the loop otherwise."""
     residual, selections = closure_residual(mechanism, data)
@@ -358,9 +400,10 @@ def _refuse_or_accept(mechanism, data, residual_norm: float, stationary: bool) -
     )
 
 
-def _split(residual: np.ndarray, selections) -> list[np.ndarray]:
+def _split(residual: np.ndarray, selections: Sequence[Selection]) -> list[np.ndarray]:
     """The residual cut into one piece per loop joint."""
-    pieces, start = [], 0
+    pieces: list[np.ndarray] = []
+    start = 0
     for _, rows, _ in selections:
         pieces.append(residual[start : start + len(rows)])
         start += len(rows)
@@ -372,7 +415,7 @@ def _weights(rows: list[int], length: float) -> np.ndarray:
 
 
 def follow_branch(
-    mechanism, start: np.ndarray, target: np.ndarray, step: float = 0.05
+    mechanism: Mechanism, start: np.ndarray, target: np.ndarray, step: float = 0.05
 ) -> np.ndarray:
     """Close the loops at ``target``'s driven values by continuation from the closed ``start``.
 
@@ -395,10 +438,11 @@ def follow_branch(
     return q
 
 
-def driven_coordinates(mechanism) -> tuple[list[int], np.ndarray]:
+def driven_coordinates(mechanism: Mechanism) -> tuple[list[int], np.ndarray]:
     """Configuration indices of the driven joints' values, and their step scales (1 [rad] for
     revolute joints, the mechanism's length scale [m] for prismatic ones)."""
-    indices, scales = [], []
+    indices: list[int] = []
+    scales: list[float] = []
     for joint in mechanism.tree_joints:
         if not joint.driven:
             continue

@@ -20,14 +20,22 @@ closed-form branch never divides by zero.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, TypeAlias
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ArgumentError
 
+if TYPE_CHECKING:
+    import pinocchio as pin
+
 Placement = tuple[ca.SX, ca.SX]
+#: what the maps accept for a vector or matrix: an SX, a DM or anything numpy.asarray converts
+SXLike: TypeAlias = ca.SX | ca.DM | ArrayLike
+#: what the placement maps accept: a pin.SE3 or an (R, p) pair
+PlacementLike: TypeAlias = "pin.SE3 | tuple[SXLike, SXLike]"
 
 #: Threshold on theta^2 [rad^2] below which the series are used. The first neglected
 #: series term is ~theta^8 / 9! < 3e-18; the closed forms lose ~eps / theta^2 < 2e-13
@@ -42,7 +50,7 @@ _SIN_HALF_OVER_T = (0.5, -1.0 / 48.0, 1.0 / 3840.0, -1.0 / 645120.0)  # sin(t/2)
 _COS_HALF = (1.0, -1.0 / 8.0, 1.0 / 384.0, -1.0 / 46080.0)  # cos(t/2)
 
 
-def as_sx(x: Any, shape: tuple[int, int] | None = None) -> ca.SX:
+def as_sx(x: SXLike, shape: tuple[int, int] | None = None) -> ca.SX:
     """Convert ``x`` (SX, DM, numpy array, list, float) to ``SX``.
 
     A 1-D input of length n becomes an n x 1 column. If ``shape`` is given the result
@@ -77,7 +85,7 @@ def as_sx(x: Any, shape: tuple[int, int] | None = None) -> ca.SX:
     return out
 
 
-def as_placement(M: Any) -> Placement:
+def as_placement(M: PlacementLike) -> Placement:
     """Convert a ``pin.SE3`` or an ``(R, p)`` pair to an SX placement ``(R, p)``."""
     if hasattr(M, "rotation") and hasattr(M, "translation"):
         return as_sx(M.rotation, (3, 3)), as_sx(M.translation, (3, 1))
@@ -89,9 +97,9 @@ def as_placement(M: Any) -> Placement:
 
 
 def _poly(t2: ca.SX, coeffs: tuple[float, ...]) -> ca.SX:
-    """Horner evaluation of sum_k coeffs[k] * t2**k."""
-    out = coeffs[-1]
-    for c in reversed(coeffs[:-1]):
+    """Horner evaluation of sum_k coeffs[k] * t2**k (two coefficients or more)."""
+    out = coeffs[-2] + t2 * coeffs[-1]
+    for c in reversed(coeffs[:-2]):
         out = c + t2 * out
     return out
 
@@ -102,7 +110,7 @@ def _guarded_theta(theta2: ca.SX) -> tuple[ca.SX, ca.SX]:
     return small, ca.sqrt(theta2 + small)
 
 
-def skew(w: Any) -> ca.SX:
+def skew(w: SXLike) -> ca.SX:
     """Cross-product matrix ``[w]x`` (3x3) of a 3-vector ``w``: ``[w]x @ u = w x u``."""
     w = as_sx(w, (3, 1))
     return ca.vertcat(
@@ -112,7 +120,7 @@ def skew(w: Any) -> ca.SX:
     )
 
 
-def vee(S: Any) -> ca.SX:
+def vee(S: SXLike) -> ca.SX:
     """Inverse of :func:`skew` for a skew-symmetric 3x3 matrix: ``(S[2,1], S[0,2], S[1,0])``."""
     S = as_sx(S, (3, 3))
     return ca.vertcat(S[2, 1], S[0, 2], S[1, 0])
@@ -130,7 +138,7 @@ def _exp_coefficients(omega: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
     return a, b, d
 
 
-def so3_exp(omega: Any) -> ca.SX:
+def so3_exp(omega: SXLike) -> ca.SX:
     """Rotation matrix ``exp([omega]x)`` (Rodrigues), omega [rad] a 3-vector.
 
     ``R = I + A [w]x + B [w]x^2`` with ``A = sin(t)/t``, ``B = (1 - cos t)/t^2``,
@@ -142,7 +150,7 @@ def so3_exp(omega: Any) -> ca.SX:
     return ca.SX.eye(3) + a * W + b * (W @ W)
 
 
-def se3_exp(twist: Any) -> Placement:
+def se3_exp(twist: SXLike) -> Placement:
     """Placement ``exp(xi)`` of a twist ``xi = (v [m], omega [rad])`` (Pinocchio order).
 
     ``R = so3_exp(omega)``, ``p = V v`` with ``V = I + B [w]x + C [w]x^2``,
@@ -158,7 +166,7 @@ def se3_exp(twist: Any) -> Placement:
     return R, V @ v
 
 
-def se2_exp(twist: Any) -> tuple[ca.SX, ca.SX]:
+def se2_exp(twist: SXLike) -> tuple[ca.SX, ca.SX]:
     """Planar exponential of ``(vx, vy, omega)``: returns ``(R 2x2, t 2x1)``.
 
     ``R = rot(omega)``, ``t = [[A, -B], [B, A]] (vx, vy)`` with ``A = sin(w)/w``,
@@ -177,7 +185,7 @@ def se2_exp(twist: Any) -> tuple[ca.SX, ca.SX]:
     return R, t
 
 
-def rotation_vee_antisym(R: Any) -> ca.SX:
+def rotation_vee_antisym(R: SXLike) -> ca.SX:
     """``vee((R - R^T) / 2)`` = ``sin(theta) * axis`` for a rotation of angle theta.
 
     A smooth (polynomial) rotation measure, equal to the rotation vector to first order.
@@ -186,7 +194,7 @@ def rotation_vee_antisym(R: Any) -> ca.SX:
     return 0.5 * ca.vertcat(R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1])
 
 
-def axis_angle_rotation(axis: Any, cos_value: Any, sin_value: Any) -> ca.SX:
+def axis_angle_rotation(axis: SXLike, cos_value: SXLike, sin_value: SXLike) -> ca.SX:
     """``R = c I + s [a]x + (1 - c) a a^T`` for a unit axis ``a`` (Pinocchio's
     ``toRotationMatrix(axis, cos, sin)``; no normalisation of ``(c, s)``)."""
     a = as_sx(axis, (3, 1))
@@ -194,7 +202,7 @@ def axis_angle_rotation(axis: Any, cos_value: Any, sin_value: Any) -> ca.SX:
     return c * ca.SX.eye(3) + s * skew(a) + (1 - c) * (a @ a.T)
 
 
-def quat_to_rotation(quat: Any) -> ca.SX:
+def quat_to_rotation(quat: SXLike) -> ca.SX:
     """Rotation matrix of a quaternion stored ``(x, y, z, w)``.
 
     Same polynomial as Eigen's ``Quaternion::toRotationMatrix`` (used by Pinocchio's
@@ -210,7 +218,7 @@ def quat_to_rotation(quat: Any) -> ca.SX:
     )
 
 
-def quat_multiply(q1: Any, q2: Any) -> ca.SX:
+def quat_multiply(q1: SXLike, q2: SXLike) -> ca.SX:
     """Hamilton product ``q1 * q2`` of quaternions stored ``(x, y, z, w)``."""
     a, b = as_sx(q1, (4, 1)), as_sx(q2, (4, 1))
     va, vb = a[:3], b[:3]
@@ -218,7 +226,7 @@ def quat_multiply(q1: Any, q2: Any) -> ca.SX:
     return ca.vertcat(wa * vb + wb * va + ca.cross(va, vb), wa * wb - ca.dot(va, vb))
 
 
-def quat_exp3(omega: Any) -> ca.SX:
+def quat_exp3(omega: SXLike) -> ca.SX:
     """Unit quaternion ``(x, y, z, w)`` of ``so3_exp(omega)``:
     ``(sin(t/2)/t * omega, cos(t/2))``, smooth at ``omega = 0``."""
     omega = as_sx(omega, (3, 1))
@@ -234,20 +242,20 @@ def identity() -> Placement:
     return ca.SX.eye(3), ca.SX.zeros(3, 1)
 
 
-def compose(A: Any, B: Any) -> Placement:
+def compose(A: PlacementLike, B: PlacementLike) -> Placement:
     """``A * B`` for placements ``(R, p)``: ``(R_a R_b, R_a p_b + p_a)``."""
     Ra, pa = as_placement(A)
     Rb, pb = as_placement(B)
     return Ra @ Rb, Ra @ pb + pa
 
 
-def inverse(A: Any) -> Placement:
+def inverse(A: PlacementLike) -> Placement:
     """``A^-1 = (R^T, -R^T p)`` (assumes ``R`` orthonormal)."""
     R, p = as_placement(A)
     return R.T, -(R.T @ p)
 
 
-def act(A: Any, point: Any) -> ca.SX:
+def act(A: PlacementLike, point: SXLike) -> ca.SX:
     """``R @ point + p``: a point [m] given in A's child frame, expressed in its parent."""
     R, p = as_placement(A)
     return R @ as_sx(point, (3, 1)) + p

@@ -22,16 +22,22 @@ true relative placement, offset included.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pinocchio as pin
 
-from ..model.clearance import ALPHA, BETA, GAMMA, U
-from ..model.joints import rotation_x_to
+from ..model.clearance import ALPHA, BETA, GAMMA, ContactPoint, U
+from ..model.joints import LoopJoint, rotation_x_to
+
+if TYPE_CHECKING:
+    from ..mechanism import Mechanism
 
 RIGID_TOLERANCE = 1e-9  # [m per m of length scale] a rigid direction may miss by round-off only
 
 
-def clearance_frames_at(loop, oMa: pin.SE3, oMb: pin.SE3) -> tuple[pin.SE3, pin.SE3]:
+def clearance_frames_at(loop: LoopJoint, oMa: pin.SE3, oMb: pin.SE3) -> tuple[pin.SE3, pin.SE3]:
     """World placements (parent side C_a, child side C_b) of a loop joint's clearance frames, for
     the placements ``oMa``, ``oMb`` of its two frames (see the module docstring)."""
     free = set(loop.clearance.free_components)
@@ -49,14 +55,16 @@ def clearance_frames_at(loop, oMa: pin.SE3, oMb: pin.SE3) -> tuple[pin.SE3, pin.
     return pin.SE3(housing, origin), pin.SE3(housing @ turned, oMb.translation.copy())
 
 
-def loop_joint_frames(mechanism, oMf) -> dict[str, tuple[pin.SE3, pin.SE3]]:
+def loop_joint_frames(
+    mechanism: Mechanism, oMf: Sequence[pin.SE3]
+) -> dict[str, tuple[pin.SE3, pin.SE3]]:
     """Per loop joint, its clearance frames in its own two frames: (aMc, bMc), fixed in
     ``frame_a``'s and ``frame_b``'s parts, from the frame placements ``oMf`` of a configuration.
 
     A mismatch the loop closure leaves at round-off (below :data:`RIGID_TOLERANCE` of the length
     scale) is no eccentricity: the child frame is then the parent one, so that answers do not
     depend on the last digits of the closure."""
-    frames = {}
+    frames: dict[str, tuple[pin.SE3, pin.SE3]] = {}
     length = max(mechanism.length_scale(), 1.0)
     for loop in mechanism.loop_joints:
         oMa, oMb = oMf[loop.frame_a], oMf[loop.frame_b]
@@ -72,22 +80,22 @@ def loop_joint_frames(mechanism, oMf) -> dict[str, tuple[pin.SE3, pin.SE3]]:
     return frames
 
 
-def nominal_offsets(loop, relative: pin.SE3) -> dict[str, np.ndarray]:
+def nominal_offsets(loop: LoopJoint, relative: pin.SE3) -> dict[str, np.ndarray]:
     r"""Per contact point of ``loop`` with a positive play: its selected displacement components
     :math:`S_j (p + R r_j - r_j)` [m] at the relative placement ``relative`` (C_b in C_a), the
     eccentricity the contact conditions start from."""
-    offsets = {}
+    offsets: dict[str, np.ndarray] = {}
     for point in loop.clearance.contacts:
         if point.bound > 0.0:
             offsets[point.name] = _displacement(relative, point)
     return offsets
 
 
-def eccentricity_problems(mechanism, oMf) -> list[str]:
+def eccentricity_problems(mechanism: Mechanism, oMf: Sequence[pin.SE3]) -> list[str]:
     """One message per loop joint whose frames, placed by ``oMf``, miss each other by more than
     an admissible eccentricity: outside the play at a contact point, or in a rigid direction
     (rigid components, contact points without play) by more than round-off. Empty: admissible."""
-    problems = []
+    problems: list[str] = []
     tolerance = RIGID_TOLERANCE * max(mechanism.length_scale(), 1.0)
     for loop in mechanism.loop_joints:
         parent, child = clearance_frames_at(loop, oMf[loop.frame_a], oMf[loop.frame_b])
@@ -119,10 +127,11 @@ def eccentricity_problems(mechanism, oMf) -> list[str]:
 _COMPONENTS = ("u", "v", "w", "alpha", "beta", "gamma")
 
 
-def _displacement(relative: pin.SE3, point) -> np.ndarray:
+def _displacement(relative: pin.SE3, point: ContactPoint) -> np.ndarray:
     r = np.asarray(point.point)
     moved = relative.translation + relative.rotation @ r - r
-    return moved[list(point.components)]
+    selected: np.ndarray = moved[list(point.components)]
+    return selected
 
 
 def _rigid_miss(relative: pin.SE3, component: int) -> float:
