@@ -13,6 +13,7 @@ Build once, solve many (run from the repository's root; tests/test_docs_examples
 (61.343, 61.343)
 """
 
+from .equilibrium.batch import EquilibriumBatch
 from .equilibrium.result import Contact, Equilibrium
 from .errors import (
     ArgumentError,
@@ -37,7 +38,9 @@ __all__ = [
     "loads",
     "Mechanism",
     "Equilibrium",
+    "EquilibriumBatch",
     "Contact",
+    "CheckReport",
     "PointForce",
     "Torque",
     "Gravity",
@@ -52,3 +55,13 @@ __all__ = [
     "SuspectValueWarning",
     "ConditioningWarning",
 ]
+
+
+def __getattr__(name: str):
+    """``clearance_pin.CheckReport`` on first use: the check package loads coal, which a solve
+    never needs."""
+    if name == "CheckReport":
+        from .check.report import CheckReport
+
+        return CheckReport
+    raise AttributeError(f"module 'clearance_pin' has no attribute {name!r}")

@@ -79,7 +79,7 @@ def test_linear_6_1_6_1b_is_reported_micrometres_off():
     assert 1e-6 < off < 3e-6 and where.startswith("I2:")
     assert all(f.joint == "I2" for f in report.failures[:2])
     assert "sits up to 1.768 um off the real boundaries (exceeds" in report.summary()
-    document = report.to_json(length=1e3)
+    document = report.to_dict(length=1e3)
     assert document["ok"] is False and document["off_boundary_mm"] == pytest.approx(off * 1e3)
 
 
@@ -164,7 +164,7 @@ def test_json_contract_in_mm():
     """to_json(length=1e3): {"ok", "joints": {name: {"model_gap_mm", "coal_distance_mm",
     "tolerance_mm", "contact"}}}, one entry per contact point, serialisable."""
     equilibrium = _case("6.1.6.1a")
-    document = json.loads(json.dumps(equilibrium.check().to_json(length=1e3)))
+    document = json.loads(json.dumps(equilibrium.check().to_dict(length=1e3)))
     assert document["ok"] is True
     for name, joint in document["joints"].items():
         contacts = [c for c in equilibrium.contacts if c.joint == name]

@@ -65,9 +65,9 @@ def test_linear_summary_says_how_far_off_the_pose_sits():
 
 @pytest.mark.parametrize(("length", "unit"), [(1.0, "m"), (1e3, "mm"), (1e6, "um")])
 def test_json_keys_and_scaling(length, unit):
-    """to_json(length) scales lengths and suffixes keys with the unit; one entry per point."""
+    """to_dict(length) scales lengths and suffixes keys with the unit; one entry per point."""
     report = _report(_reading(1e-15, point="end-"), _reading(2e-5, 2e-5, False, point="end+"))
-    document = json.loads(json.dumps(report.to_json(length=length)))
+    document = json.loads(json.dumps(report.to_dict(length=length)))
     joint = document["joints"]["I2"]
     assert document["ok"] is True and document["length_unit"] == unit
     assert joint["point"] == ["end-", "end+"]
@@ -83,8 +83,8 @@ def test_json_unknown_length_needs_a_unit():
     """A length factor without a known unit must be named."""
     report = _report(_reading(0.0))
     with pytest.raises(ValueError, match="name the unit"):
-        report.to_json(length=25.4)
-    assert "model_gap_in" in report.to_json(length=1 / 0.0254, unit="in")["joints"]["I2"]
+        report.to_dict(length=25.4)
+    assert "model_gap_in" in report.to_dict(length=1 / 0.0254, unit="in")["joints"]["I2"]
 
 
 def test_one_sided_tolerance():

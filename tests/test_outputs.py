@@ -168,3 +168,19 @@ def test_batched_answers_report_the_loaded_points_too():
     assert list(batch[1].outputs) == list(single.outputs)
     for name, (t, _) in single.outputs.items():
         assert np.allclose(batch[1].outputs[name][0], t, rtol=0, atol=1e-15)
+
+
+def test_batch_frame_displacements_are_the_items_ones():
+    """EquilibriumBatch.frame_displacements(frame): arrays (N, 3) equal to each item's
+    frame_displacement (a batch of load cases on the 6R arm)."""
+    arm = cp.load(ROOT / "models" / "arm_6r.urdf")
+    cases = [
+        [cp.PointForce("tool", [0.0, 0.0, -50.0 * (1 + 0.1 * k)], [0, 0, 0])] for k in range(5)
+    ]
+    batch = arm.solve_many(cases)
+    translations, rotations = batch.frame_displacements("tool")
+    assert translations.shape == rotations.shape == (5, 3)
+    for i in range(5):
+        t, r = batch[i].frame_displacement("tool")
+        assert np.array_equal(translations[i], t) and np.array_equal(rotations[i], r)
+    assert cp.EquilibriumBatch is type(batch) and cp.CheckReport is not None

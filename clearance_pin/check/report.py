@@ -218,8 +218,9 @@ class CheckReport:
                 t = r.tolerance
                 lines.append(
                     f"{r.label:<24}{r.method:<15}{'contact' if r.contact else 'free':<8}"
-                    f"{r.model_gap * length:>13.6g}{r.distance * length:>13.6g}"
-                    f"{r.deviation * length:>13.4g}{t.total * length:>11.3g}{'^' if t.one_sided else ' '}  = "
+                    f"{r.model_gap * length + 0.0:>13.6g}{r.distance * length + 0.0:>13.6g}"
+                    f"{r.deviation * length + 0.0:>13.4g}{t.total * length:>11.3g}"
+                    f"{'^' if t.one_sided else ' '}  = "
                     f"{t.faceting * length:.2g} + {t.rim * length:.2g} + "
                     f"{t.solver * length:.2g} + {t.coal * length:.2g}  {r.verdict}"
                 )
@@ -232,7 +233,7 @@ class CheckReport:
         lines.extend(self.notes)
         return "\n".join(lines)
 
-    def to_json(self, length: float = 1.0, unit: str | None = None) -> dict:
+    def to_dict(self, length: float = 1.0, unit: str | None = None) -> dict:
         """JSON-ready dict; lengths times ``length``, keys suffixed ``_<unit>`` (``unit`` defaults
         from ``length``: 1 -> m, 1e3 -> mm, 1e6 -> um, 1e9 -> nm). One list entry per contact
         point: ``{"ok", "formulation", "joints": {name: {"point", "model_gap_<u>",

@@ -75,6 +75,18 @@ class EquilibriumBatch(Sequence):
             rows.append(np.full(6, np.nan) if isinstance(item, Exception) else item.torsor(joint))
         return np.array(rows).reshape(-1, 6)
 
+    def frame_displacements(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
+        """World displacement of a Pinocchio frame in every case: translations (N, 3) [m] of its
+        origin and rotations (N, 3) [rad], world axes (NaN for failed cases); see
+        :meth:`~clearance_pin.equilibrium.result.Equilibrium.frame_displacement`."""
+        translations = np.full((len(self), 3), np.nan)
+        rotations = np.full((len(self), 3), np.nan)
+        for i in range(len(self)):
+            item = self[i]
+            if not isinstance(item, Exception):
+                translations[i], rotations[i] = item.frame_displacement(frame)
+        return translations, rotations
+
     @property
     def ok(self) -> np.ndarray:
         """Per case: a verified equilibrium (False for errors), (N,)."""

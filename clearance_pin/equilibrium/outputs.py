@@ -21,6 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ArgumentError
+from ..model.frames import frame_id
 from ..model.loads import PointForce, Torque
 
 
@@ -112,8 +113,13 @@ def _resolve(mechanism, loads, outputs) -> tuple[OutputPoint, ...]:
             raise ArgumentError(
                 f"outputs[{index}]", f"a frame of {mechanism.name!r}: {', '.join(valid)}", name
             )
-        frame = model.frames[model.getFrameId(name)]
-        points.setdefault(name, OutputPoint(name, frame.parentJoint, frame.placement))
+        frame = model.frames[frame_id(model, name)]
+        same = any(  # a frame at a loaded point is reported once, under the point's name
+            p.body == frame.parentJoint and p.placement.isApprox(frame.placement, 1e-12)
+            for p in points.values()
+        )
+        if not same or outputs is not None:
+            points.setdefault(name, OutputPoint(name, frame.parentJoint, frame.placement))
     return tuple(points.values())
 
 

@@ -24,8 +24,11 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import NotFoundError
+from ..kinematics.loop_frames import RIGID_TOLERANCE
+from ..model.frames import frame_id as find_frame
 from .outputs import output_displacements, resolve_outputs
 from .reactions import joint_reactions
+from .report import report
 from .residuals import Residuals
 
 Formulation = Literal["linear", "exact"]
@@ -158,7 +161,7 @@ class Equilibrium:
         model = self.mechanism.model
         if not model.existFrame(frame):
             raise NotFoundError("frame", frame, [f.name for f in model.frames], self.mechanism.name)
-        frame_id = model.getFrameId(frame)
+        frame_id = find_frame(model, frame)
         body = model.frames[frame_id].parentJoint
         nominal = self.configuration.oMf[frame_id]
         if self.body_twists is not None:
@@ -208,10 +211,13 @@ class Equilibrium:
         (:meth:`~clearance_pin.mechanism.Configuration.eccentricity`); aligned joints are left out.
         The joint's torsor is its motion from that eccentric place."""
         found = {}
-        for loop in getattr(self.mechanism, "loop_joints", ()):
+        mechanism = self.mechanism
+        for loop in getattr(mechanism, "loop_joints", ()):
             offset = self.configuration.eccentricity(loop)
             translation, rotation = offset.translation.copy(), pin.log3(offset.rotation)
-            if np.any(translation) or np.any(rotation):
+            length = max(mechanism.length_scale(), 1.0)
+            size = max(float(np.abs(translation).max()), length * float(np.abs(rotation).max()))
+            if size > RIGID_TOLERANCE * length:  # beyond the closure's round-off
                 found[loop.name] = (translation, rotation)
         return found
 
@@ -269,68 +275,10 @@ class Equilibrium:
             "note": self.note,
         }
 
-    def table(self, length: float = 1e6, unit: str = "um") -> str:
-        """A readable report: torsors, contacts and forces, residuals."""
-        lines = [
-            f"equilibrium ({self.formulation}): {self.status}, ok={self.ok}, "
-            f"energy {self.energy:.6g} J"
-        ]
-        lines.append(
-            f"{'joint':<14}{'u':>11}{'v':>11}{'w':>11}   [{unit}]"
-            f"{'alpha':>12}{'beta':>12}{'gamma':>12}   [urad]"
-        )
-        for name, t in self.torsors.items():
-            lin = "".join(f"{value * length:>11.4f}" for value in t[:3])
-            ang = "".join(f"{value * 1e6:>12.4f}" for value in t[3:])
-            lines.append(f"{name:<14}{lin}      {ang}")
-        lines.append(f"{'contact':<22}{'gap [' + unit + ']':>14}{'force [N]':>12}  direction")
-        for c in self.contacts:
-            direction = c.force / c.force_magnitude if c.force_magnitude > 0 else c.force
-            lines.append(
-                f"{c.label:<22}{c.gap * length:>14.4f}{c.force_magnitude:>12.5g}  "
-                f"{np.array2string(direction, precision=3, suppress_small=True)}"
-                f"{'  <- contact' if c.active else ''}"
-            )
-        for name, (t, r) in self.eccentricities.items():
-            lines.append(
-                f"eccentric (misaligned housing) {name}: offset "
-                f"{np.array2string(t * length, precision=4, suppress_small=True)} {unit}, tilt "
-                f"{np.array2string(r * 1e6, precision=3, suppress_small=True)} urad; "
-                "its torsor is measured from there"
-            )
-        if self.free_motions:
-            lines.append("free (indeterminate, set to zero): " + " | ".join(self.free_motions))
-        r = self.residuals
-        lines.append(
-            f"solver: {self.solver_status}, {self.iterations} iterations, polished={self.polished}; "
-            f"KKT {r.get('stationarity', 0):.1e}, statics {r.get('statics', 0):.1e}, "
-            f"max violation {r.get('max_violation_m', 0) * length:.1e} {unit}; "
-            f"build {self.build_time * 1e3:.2f} ms, solve {self.solve_time * 1e3:.2f} ms"
-        )
-        if self.note:
-            lines.append(self.note)
-        measured = (self.difference or {}).get("outputs", {})
-        bounds = (self.difference_bound or {}).get("outputs", {})
-        header = f"{'output':<30}{'displacement [' + unit + ']':>26}{'[urad]':>12}"
-        if measured:
-            header += f"{'exact - linear [' + unit + ']':>24}{'[urad]':>10}"
-        if bounds:
-            header += f"{'estimate [' + unit + ']':>16}"
-        lines.append(header)
-        for name, (t, r) in self.outputs.items():
-            line = f"{name:<30}{np.linalg.norm(t) * length:>26.4f}{np.linalg.norm(r) * 1e6:>12.4f}"
-            if name in measured:
-                dt, dr = measured[name]
-                line += f"{np.linalg.norm(dt) * length:>24.4e}{np.linalg.norm(dr) * 1e6:>10.3g}"
-            if name in bounds:
-                line += f"{bounds[name][0] * length:>16.4e}"
-            lines.append(line)
-        if self.difference:
-            lines.append(
-                f"exact - linear: {self.difference['translation_m'] * length:.3e} {unit}, "
-                f"{self.difference['rotation_rad']:.3e} rad at the outputs"
-            )
-        return "\n".join(lines)
+    def table(self) -> str:
+        """The engineer's text report (:func:`.report.report`): outputs, bearing loads, contacts
+        with their world positions, torsors, residuals; every frame named, columns kept."""
+        return report(self)
 
 
 def _difference_dict(difference: dict | None, length: float) -> dict | None:

@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike
 from ..errors import ArgumentError, LoadError, ModelError
 from .clearance import KINDS, Clearance, ideal
 from .dimensions import Dimension, parse_dimensions
+from .frames import frame_id
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
 from .loads import Gravity, PointForce, Torque
 from .xml_values import number, vector
@@ -519,7 +520,7 @@ class _Reader:
                         label,
                         f"unknown frame {frame!r} ({key}); the frames are: {known}",
                     )
-                frames.append(model.getFrameId(frame))
+                frames.append(frame_id(model, frame))
             if model.frames[frames[0]].parentJoint == model.frames[frames[1]].parentJoint:
                 raise ModelError(
                     self.source,

@@ -65,6 +65,7 @@ from ..kinematics.closure import (
 )
 from ..model.clearance import ALPHA
 from ..model.dimensions import Dimension
+from ..model.frames import frame_id
 from .dimensions import affected_frames
 from .statistics import rss_band, worst_case_band
 
@@ -131,7 +132,7 @@ def parse_output(model: pin.Model, spec: str) -> Output:
         frame, axis = match.groups()
         kind = "orientation" if axis.startswith("r") else "position"
         return Output(
-            name.strip() or target, kind, frame, model.getFrameId(frame), COMPONENTS[axis]
+            name.strip() or target, kind, frame, frame_id(model, frame), COMPONENTS[axis]
         )
     if model.existJointName(target) and model.getJointId(target) > 0:
         joint_id = model.getJointId(target)
