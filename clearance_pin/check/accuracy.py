@@ -35,10 +35,14 @@ the real boundary by more than :math:`\tau` fails, and the report says by how mu
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import ArgumentError
+
+if TYPE_CHECKING:
+    from ..equilibrium.result import Equilibrium
 
 ROUNDING = 16.0 * np.finfo(float).eps
 """Relative rounding of world coordinates allowed for (16 machine epsilons)."""
@@ -84,7 +88,9 @@ class Tolerance:
         }
 
 
-def solver_accuracy(equilibrium, clearance: float, gap: float = 0.0, contact: bool = False):
+def solver_accuracy(
+    equilibrium: Equilibrium, clearance: float, gap: float = 0.0, contact: bool = False
+) -> float:
     """:math:`\\tau_{solver}` [m] for a reading on a clearance ``clearance`` [m] whose model gap is
     ``gap`` [m] (counted when the model predicts a ``contact``); see the module docstring."""
     residuals = equilibrium.residuals

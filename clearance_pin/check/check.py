@@ -4,16 +4,21 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import ArgumentError, ClearancePinError
+from ..model.joints import LoopJoint, TreeJoint
 from .accuracy import Tolerance, coal_accuracy, solver_accuracy
 from .geometry import Region, point_shape, shape_cache
 from .measure import Probe
-from .poses import clearance_frames
+from .poses import ClearanceFrames, clearance_frames, solved_mechanism
 from .report import CheckReport, JointCheck, PointCheck
 from .surfaces import collision_parts, journal_in_bore
+
+if TYPE_CHECKING:
+    from ..equilibrium.result import Contact, Equilibrium
 
 GJK_TOLERANCE = 1e-12
 FACETS = 512
@@ -21,7 +26,7 @@ _IDENTITY = np.eye(3)
 
 
 def check_equilibrium(
-    equilibrium,
+    equilibrium: Equilibrium,
     *,
     bores: bool = False,
     journal_radius: float | None = None,
@@ -51,13 +56,14 @@ def check_equilibrium(
     """
     started = time.perf_counter()
     _validate(equilibrium, journal_radius, facets, mesh_faceting, gjk_tolerance)
-    mechanism = equilibrium.mechanism
+    mechanism = solved_mechanism(equilibrium)
     probe = Probe(gjk_tolerance)
     frames = clearance_frames(equilibrium)
-    by_joint: dict[str, list] = {}
+    by_joint: dict[str, list[Contact]] = {}
     for contact in equilibrium.contacts:
         by_joint.setdefault(contact.joint, []).append(contact)
-    joints, notes = {}, []
+    joints: dict[str, JointCheck] = {}
+    notes: list[str] = []
     for name, joint in mechanism.joints.items():
         contacts = by_joint.get(name, [])
         rigid = [p.name for p in joint.clearance.contacts if p.bound == 0.0]
@@ -71,13 +77,13 @@ def check_equilibrium(
         points = tuple(
             _point_reading(equilibrium, joint, contact, frames[name], probe) for contact in contacts
         )
-        surfaces = []
+        found: list[PointCheck | None] = []
         if bores:
-            surfaces.append(
+            found.append(
                 journal_in_bore(equilibrium, name, frames[name], probe, facets, journal_radius)
             )
-        surfaces.append(collision_parts(equilibrium, name, frames[name], probe, mesh_faceting))
-        surfaces = tuple(s for s in surfaces if s is not None)
+        found.append(collision_parts(equilibrium, name, frames[name], probe, mesh_faceting))
+        surfaces = tuple(s for s in found if s is not None)
         if any(not s.judged for s in surfaces):
             notes.append(
                 f"{name}: URDF collision meshes of unknown faceting, only penetration judged "
@@ -96,13 +102,18 @@ def check_equilibrium(
     )
 
 
-def _point_reading(equilibrium, joint, contact, frames, probe: Probe) -> PointCheck:
+def _point_reading(
+    equilibrium: Equilibrium,
+    joint: TreeJoint | LoopJoint,
+    contact: Contact,
+    frames: ClearanceFrames,
+    probe: Probe,
+) -> PointCheck:
     """coal's reading of one contact point: the child's point against its clearance region."""
     point = next(p for p in joint.clearance.contacts if p.name == contact.point)
     if point.bound != contact.clearance:  # measure the clearance the solver used
         point = dataclasses.replace(point, bound=contact.clearance)
-    mechanism = equilibrium.mechanism
-    cache = shape_cache(mechanism)
+    cache = shape_cache(solved_mechanism(equilibrium))
     key = ("functor", joint.name, point)
     if key not in cache:
         import coal
@@ -133,7 +144,13 @@ def _point_reading(equilibrium, joint, contact, frames, probe: Probe) -> PointCh
     )
 
 
-def _validate(equilibrium, journal_radius, facets, mesh_faceting, gjk_tolerance) -> None:
+def _validate(
+    equilibrium: Equilibrium,
+    journal_radius: float | None,
+    facets: int,
+    mesh_faceting: float | None,
+    gjk_tolerance: float,
+) -> None:
     if getattr(equilibrium, "mechanism", None) is None or not equilibrium.body_placements:
         raise ClearancePinError(
             "this equilibrium carries no solved pose (mechanism and body_placements): "

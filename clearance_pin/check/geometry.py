@@ -31,10 +31,18 @@ reached by a part that reaches a vertex. Sizes in [m].
 from __future__ import annotations
 
 import math
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import ArgumentError, UnsupportedError
+from ..model.clearance import ContactPoint
+
+if TYPE_CHECKING:
+    import coal
+
+    from ..mechanism import Mechanism
 
 WINDOW = 2.0
 """Half-extent of a region's solid along its unbounded directions, in clearances."""
@@ -43,10 +51,11 @@ BORE_LENGTH = 2.0
 """Length of a generated bore, in journal lengths (centred on the journal's axial position)."""
 
 
-def _coal():
+def _coal() -> ModuleType:
     import coal
 
-    return coal
+    module: ModuleType = coal
+    return module
 
 
 def cyclic_rotation(axis: int) -> np.ndarray:
@@ -69,7 +78,11 @@ class Region:
         free: the unbounded coordinate axes of the region (the window slides along them).
     """
 
-    def __init__(self, point):
+    kind: str
+    shape: coal.ShapeBase
+    rotation: np.ndarray
+
+    def __init__(self, point: ContactPoint) -> None:
         coal = _coal()
         self.point = point
         bound = point.bound
@@ -101,14 +114,16 @@ class Region:
             centre[axis] = local[axis]
         return centre
 
-    def placement(self, oR_c: np.ndarray, o_c: np.ndarray, x: np.ndarray):
+    def placement(
+        self, oR_c: np.ndarray, o_c: np.ndarray, x: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """World placement (rotation (3, 3), translation (3,)) of the solid for the point at
         world position ``x`` [m], the parent's clearance frame being at (``oR_c``, ``o_c``)."""
         centre = self.centre(oR_c.T @ (x - o_c))
         return oR_c @ self.rotation, oR_c @ centre + o_c
 
 
-def point_shape():
+def point_shape() -> coal.Sphere:
     """A point for coal: a sphere of radius 0."""
     return _coal().Sphere(0.0)
 
@@ -130,7 +145,7 @@ def tangent_polygon(radius: float, facets: int) -> np.ndarray:
     return vertex_radius * np.column_stack([np.cos(angles), np.sin(angles)])
 
 
-def bore_mesh(radius: float, facets: int, length: float):
+def bore_mesh(radius: float, facets: int, length: float) -> coal.BVHModelOBBRSS:
     """The inner surface of a bore along x, centred at the origin, as a coal BVH of triangles.
 
     Args:
@@ -166,13 +181,13 @@ def bore_mesh(radius: float, facets: int, length: float):
     return mesh
 
 
-def journal_shape(radius: float, length: float):
+def journal_shape(radius: float, length: float) -> coal.Cylinder:
     """The journal: a solid coal cylinder of ``radius`` and ``length`` [m], axis z (rotate it with
     :func:`cyclic_rotation` (0) onto a clearance frame's x axis)."""
     return _coal().Cylinder(radius, length)
 
 
-def distance_request(gjk_tolerance: float):
+def distance_request(gjk_tolerance: float) -> coal.DistanceRequest:
     """A coal distance request with GJK and EPA tolerances set to ``gjk_tolerance`` (relative)."""
     coal = _coal()
     request = coal.DistanceRequest()
@@ -182,7 +197,7 @@ def distance_request(gjk_tolerance: float):
     return request
 
 
-def shape_cache(mechanism) -> dict:
+def shape_cache(mechanism: Mechanism) -> dict[Any, Any]:
     """The mechanism's store of built coal shapes (regions, bores), created on first use.
 
     It lives in the mechanism's solver store, which is dropped on pickling and rebuilt on demand.

@@ -4,11 +4,22 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, TypeAlias, TypeVar
 
+import numpy as np
 import pinocchio as pin
 
 from ..errors import ClearancePinError
 from .geometry import distance_request
+
+if TYPE_CHECKING:
+    import coal
+
+#: a world placement: a pin.SE3, or (rotation (3, 3), translation (3,))
+WorldPlacement: TypeAlias = "pin.SE3 | tuple[np.ndarray, np.ndarray]"
+_Built = TypeVar("_Built")
 
 FAILED = 1e30
 """A reading this large [m] is coal's failure value (it returns -DBL_MAX when GJK breaks down)."""
@@ -24,10 +35,10 @@ class Probe:
         count: number of distance calls.
     """
 
-    def __init__(self, gjk_tolerance: float):
+    def __init__(self, gjk_tolerance: float) -> None:
         import coal
 
-        self._coal = coal
+        self._coal: ModuleType = coal
         self.gjk_tolerance = gjk_tolerance
         self.request = distance_request(gjk_tolerance)
         self.result = coal.DistanceResult()
@@ -35,14 +46,21 @@ class Probe:
         self.build_time = 0.0
         self.count = 0
 
-    def build(self, function, *args):
+    def build(self, function: Callable[..., _Built], *args: Any) -> _Built:
         """``function(*args)``, its time added to :attr:`build_time`."""
         started = time.perf_counter()
         built = function(*args)
         self.build_time += time.perf_counter() - started
         return built
 
-    def distance(self, shape_1, oM_1, shape_2, oM_2, label: str) -> float:
+    def distance(
+        self,
+        shape_1: coal.CollisionGeometry | coal.ComputeDistance,
+        oM_1: WorldPlacement,
+        shape_2: coal.CollisionGeometry | None,
+        oM_2: WorldPlacement,
+        label: str,
+    ) -> float:
         """coal's signed distance [m] between two shapes at world placements (negative: overlap).
 
         Args:
@@ -71,7 +89,7 @@ class Probe:
         return float(value)
 
 
-def _transform(coal, placement):
+def _transform(coal: ModuleType, placement: WorldPlacement) -> coal.Transform3s:
     if isinstance(placement, pin.SE3):
         return coal.Transform3s(placement)
     return coal.Transform3s(*placement)

@@ -19,14 +19,26 @@ configuration; at the solved pose their relative placement is the joint's finite
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, cast
+
 import pinocchio as pin
 
 from ..equilibrium.poses import ClearanceFrames, clearance_frames
 
-__all__ = ["ClearanceFrames", "clearance_frames", "joint_links"]
+if TYPE_CHECKING:
+    from ..equilibrium.result import Equilibrium
+    from ..mechanism import Mechanism
+
+__all__ = ["ClearanceFrames", "clearance_frames", "joint_links", "solved_mechanism"]
 
 
-def joint_links(mechanism, name: str) -> tuple[int, int]:
+def solved_mechanism(equilibrium: Equilibrium) -> Mechanism:
+    """The mechanism ``equilibrium`` was solved on (``Equilibrium.mechanism``, declared
+    ``object``; a check needs it, :func:`~clearance_pin.check.check_equilibrium` refuses None)."""
+    return cast("Mechanism", equilibrium.mechanism)
+
+
+def joint_links(mechanism: Mechanism, name: str) -> tuple[int, int]:
     """Frame ids of the parent link and the child link (BODY frames) that a joint joins.
 
     Tree joint: the link the URDF joint hangs from and the link it carries; loop joint: the links
@@ -46,10 +58,10 @@ def joint_links(mechanism, name: str) -> tuple[int, int]:
     return parent, child
 
 
-def _link_of(model, frame_id: int) -> int:
+def _link_of(model: pin.Model, frame_id: int) -> int:
     while model.frames[frame_id].type != pin.FrameType.BODY and frame_id != 0:
         frame_id = model.frames[frame_id].parentFrame
     return frame_id
 
 
-__all__ = ["ClearanceFrames", "clearance_frames", "joint_links"]
+__all__ = ["ClearanceFrames", "clearance_frames", "joint_links", "solved_mechanism"]

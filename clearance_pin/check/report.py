@@ -15,7 +15,9 @@ equal unless one-sided, :mod:`.accuracy`):
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from ..errors import ArgumentError
 from .accuracy import Tolerance
@@ -233,7 +235,7 @@ class CheckReport:
         lines.extend(self.notes)
         return "\n".join(lines)
 
-    def to_dict(self, length: float = 1.0, unit: str | None = None) -> dict:
+    def to_dict(self, length: float = 1.0, unit: str | None = None) -> dict[str, Any]:
         """JSON-ready dict; lengths times ``length``, keys suffixed ``_<unit>`` (``unit`` defaults
         from ``length``: 1 -> m, 1e3 -> mm, 1e6 -> um, 1e9 -> nm). One list entry per contact
         point: ``{"ok", "formulation", "joints": {name: {"point", "model_gap_<u>",
@@ -274,7 +276,7 @@ class CheckReport:
         }
 
 
-def _columns(readings, length: float, unit: str) -> dict:
+def _columns(readings: Sequence[PointCheck], length: float, unit: str) -> dict[str, list[Any]]:
     return {
         "point": [r.point for r in readings],
         "method": [r.method for r in readings],

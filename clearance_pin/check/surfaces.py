@@ -23,6 +23,8 @@ sideways): a negative surface reading says *that* the parts overlap; the point c
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pinocchio as pin
 
@@ -35,8 +37,14 @@ from .geometry import (
     journal_shape,
     shape_cache,
 )
-from .poses import joint_links
+from .measure import Probe
+from .poses import ClearanceFrames, joint_links, solved_mechanism
 from .report import PointCheck
+
+if TYPE_CHECKING:
+    import coal
+
+    from ..equilibrium.result import Contact, Equilibrium
 
 JOURNAL_RADIUS_RATIO = 10.0
 """Default journal radius of a generated bore, in radial clearances."""
@@ -44,18 +52,23 @@ JOURNAL_RADIUS_RATIO = 10.0
 _TO_X = pin.SE3(cyclic_rotation(0), np.zeros(3))
 
 
-def radial_contacts(equilibrium, joint_name: str) -> list:
+def radial_contacts(equilibrium: Equilibrium, joint_name: str) -> list[Contact]:
     """The joint's contacts on two bounded components (the journal's axis ends)."""
-    joint = equilibrium.mechanism.joint(joint_name)
+    joint = solved_mechanism(equilibrium).joint(joint_name)
     radial = {p.name for p in joint.clearance.contacts if len(p.components) == 2}
     return [c for c in equilibrium.contacts if c.joint == joint_name and c.point in radial]
 
 
 def journal_in_bore(
-    equilibrium, name: str, frames, probe, facets: int, journal_radius: float | None
+    equilibrium: Equilibrium,
+    name: str,
+    frames: ClearanceFrames,
+    probe: Probe,
+    facets: int,
+    journal_radius: float | None,
 ) -> PointCheck | None:
     """The generated-bore reading of a cylindrical or revolute joint (None for other kinds)."""
-    joint = equilibrium.mechanism.joint(name)
+    joint = solved_mechanism(equilibrium).joint(name)
     clearance = joint.clearance
     contacts = radial_contacts(equilibrium, name)
     if clearance.kind not in ("cylindrical", "revolute") or not contacts:
@@ -63,7 +76,7 @@ def journal_in_bore(
     c, length = clearance.radial, clearance.length
     radius = JOURNAL_RADIUS_RATIO * c if journal_radius is None else journal_radius
     bore_length = BORE_LENGTH * length
-    cache = shape_cache(equilibrium.mechanism)
+    cache = shape_cache(solved_mechanism(equilibrium))
     bore_key, journal_key = ("bore", radius + c, facets, bore_length), ("journal", radius, length)
     if bore_key not in cache:
         cache[bore_key] = probe.build(bore_mesh, radius + c, facets, bore_length)
@@ -91,12 +104,16 @@ def journal_in_bore(
 
 
 def collision_parts(
-    equilibrium, name: str, frames, probe, mesh_faceting: float | None
+    equilibrium: Equilibrium,
+    name: str,
+    frames: ClearanceFrames,
+    probe: Probe,
+    mesh_faceting: float | None,
 ) -> PointCheck | None:
     """The URDF-parts reading of a joint (None unless both links carry collision geometry)."""
     import coal
 
-    mechanism = equilibrium.mechanism
+    mechanism = solved_mechanism(equilibrium)
     geometry = mechanism.collision_model
     if geometry is None:
         return None
@@ -143,7 +160,7 @@ def collision_parts(
     )
 
 
-def _radii(shape) -> tuple[float, float]:
+def _radii(shape: coal.CollisionGeometry) -> tuple[float, float]:
     """(radius about its axis for the rim term, bounding radius) [m] of a child part: a
     cylinder's radius, else the bounding radius about the geometry's origin (conservative)."""
     import coal
