@@ -22,6 +22,7 @@ import json
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
@@ -29,6 +30,8 @@ import pinocchio as pin
 from ..errors import ArgumentError, ClearancePinError
 from .sensitivity import Output, determined_outputs, parse_output, sensitivities
 from .sweep import (
+    Budget,
+    Sweep,
     clearance_budget,
     cycle_maximum,
     driven_joint,
@@ -37,7 +40,13 @@ from .sweep import (
     sweep,
 )
 
+if TYPE_CHECKING:
+    from ..mechanism import Mechanism
+
 __all__ = ["add_arguments", "default_outputs", "run"]
+
+#: the largest bands over the sweep: (output, "worst" or "rss") -> (band, where [rad or m])
+Maxima = dict[tuple[str, str], tuple[float, float]]
 
 _TABLE_SCALE = {"m": (1e6, "um"), "rad": (1e6, "urad")}
 
@@ -98,7 +107,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the results as JSON")
 
 
-def default_outputs(mechanism) -> tuple[Output, ...]:
+def default_outputs(mechanism: Mechanism) -> tuple[Output, ...]:
     """The coordinates of the leaf links that the dimensions move at the nominal configuration."""
     model = mechanism.model
     parents = {f.parentFrame for f in model.frames}
@@ -155,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         exact=args.exact,
     )
-    maxima = {}
+    maxima: Maxima = {}
     if not args.no_maxima and args.positions > 1:
         fine = sweep(
             mechanism,
@@ -183,7 +192,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _range_si(mechanism, args: argparse.Namespace) -> tuple[float, float, float]:
+def _range_si(mechanism: Mechanism, args: argparse.Namespace) -> tuple[float, float, float]:
     """``--start``, ``--stop``, ``--offset`` in SI [rad or m], read in the swept joint's
     display unit: deg for a revolute joint (0 to 360 by default), mm for a prismatic one."""
     joint_id = driven_joint(mechanism, args.joint)
@@ -201,7 +210,7 @@ def _range_si(mechanism, args: argparse.Namespace) -> tuple[float, float, float]
     return args.start / 1e3, args.stop / 1e3, args.offset / 1e3  # correctly rounded m
 
 
-def _table(mechanism, result, maxima: dict, budget) -> str:
+def _table(mechanism: Mechanism, result: Sweep, maxima: Maxima, budget: Budget | None) -> str:
     lines = [
         f"{mechanism.name}: {len(result.dimensions)} dimensions, sweep of "
         f"{result.joint} ({_law(result)}), {len(result.phi)} positions, {result.seconds:.2f} s"
@@ -268,7 +277,7 @@ def _table(mechanism, result, maxima: dict, budget) -> str:
     return "\n".join(lines)
 
 
-def _law(result) -> str:
+def _law(result: Sweep) -> str:
     """The driven joint's value along the sweep, e.g. ``q = +0 - phi`` or
     ``q = +0 mm + s`` (a prismatic joint)."""
     sign = "-" if result.sign < 0 else "+"
@@ -277,7 +286,7 @@ def _law(result) -> str:
     return f"q = {1e3 * result.offset:+.6g} mm {sign} s"
 
 
-def _span(result) -> str:
+def _span(result: Sweep) -> str:
     """Where the maxima are sought: ``the cycle`` (an angle) or ``s in [a, b] mm``."""
     if result.unit == "rad":
         return "the cycle"
@@ -285,11 +294,11 @@ def _span(result) -> str:
     return f"s in [{low:.6g}, {high:.6g}] mm"
 
 
-def _document(model: Path, result, maxima: dict, budget) -> dict:
+def _document(model: Path, result: Sweep, maxima: Maxima, budget: Budget | None) -> dict[str, Any]:
     """The JSON document (SI units)."""
-    outputs = {}
+    outputs: dict[str, dict[str, Any]] = {}
     for i, output in enumerate(result.outputs):
-        entry = {
+        entry: dict[str, Any] = {
             "kind": output.kind,
             "target": output.target,
             "unit": output.unit,

@@ -9,11 +9,16 @@ kinematics).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pinocchio as pin
 
 from ..errors import ArgumentError
 from ..model.dimensions import Dimension
+
+if TYPE_CHECKING:
+    from ..mechanism import Mechanism
 
 __all__ = ["affected_frames", "apply_deviations", "directly_moved", "with_deviations"]
 
@@ -94,7 +99,7 @@ def apply_deviations(
     return perturbed
 
 
-def with_deviations(mechanism, deviations: np.ndarray):
+def with_deviations(mechanism: Mechanism, deviations: np.ndarray) -> Mechanism:
     """The manufactured mechanism: a new :class:`~clearance_pin.mechanism.Mechanism` whose model
     carries ``deviations`` (see :func:`apply_deviations`) and whose loops are closed from the
     nominal configuration; everything else (joints, loads, dimensions) is the mechanism's."""

@@ -21,9 +21,10 @@ import itertools
 import os
 import time
 from collections import deque
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable, Iterable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -32,6 +33,12 @@ from ..progress import Progress
 from .batch_closure import BatchClosure
 from .sensitivity import Output
 from .statistics import monte_carlo_inputs
+
+if TYPE_CHECKING:
+    from ..mechanism import Mechanism
+
+#: a function of points (k, n_dim) of the tolerance box, one value per point (k,)
+Objective = Callable[[np.ndarray], np.ndarray]
 
 __all__ = ["BatchClosure", "MonteCarloResult", "WorstCase", "exact_worst_case", "monte_carlo"]
 
@@ -62,17 +69,19 @@ class MonteCarloResult:
     @property
     def three_sigma(self) -> np.ndarray:
         """``3 s`` per output [m or rad]: compare with the RSS band (normal inputs)."""
-        return 3.0 * self.std
+        three: np.ndarray = 3.0 * self.std
+        return three
 
     @property
     def max_abs(self) -> np.ndarray:
         """Largest ``|deviation|`` per output: inside the worst case band (uniform inputs)."""
-        return np.maximum(np.abs(self.minimum), np.abs(self.maximum))
+        largest: np.ndarray = np.maximum(np.abs(self.minimum), np.abs(self.maximum))
+        return largest
 
 
 def monte_carlo(
-    mechanism,
-    outputs,
+    mechanism: Mechanism,
+    outputs: Iterable[Output | str],
     q: np.ndarray | None = None,
     samples: int = 100_000,
     distribution: Literal["uniform", "normal"] = "uniform",
@@ -118,7 +127,7 @@ def monte_carlo(
     workers = min(4, os.cpu_count() or 1) if workers is None else max(1, int(workers))
     counts = [min(chunk, samples - start) for start in range(0, samples, chunk)]
     with ThreadPoolExecutor(workers) if workers > 1 else contextlib.nullcontext() as pool:
-        pending: deque = deque()
+        pending: deque[tuple[int, Future[np.ndarray]]] = deque()
         for count in counts:
             dd = monte_carlo_inputs(rng, half, count, distribution)
             if pool is None:
@@ -151,7 +160,7 @@ def monte_carlo(
 class _Moments:
     """Running mean, variance (shifted sums), extremes and the first ``keep`` samples."""
 
-    def __init__(self, n_out: int, keep: int):
+    def __init__(self, n_out: int, keep: int) -> None:
         self.count, self.keep = 0, keep
         self.total, self.total_sq = np.zeros(n_out), np.zeros(n_out)
         self.low, self.high = np.full(n_out, np.inf), np.full(n_out, -np.inf)
@@ -174,12 +183,15 @@ class _Moments:
         self.count += len(y)
 
     def mean(self) -> np.ndarray:
-        return self.shift + self.total / self.count
+        assert self.shift is not None  # set by the first add (a run has samples >= 2)
+        mean: np.ndarray = self.shift + self.total / self.count
+        return mean
 
     def std(self) -> np.ndarray:
         centred_mean = self.total / self.count
         variance = (self.total_sq - self.count * centred_mean**2) / (self.count - 1)
-        return np.sqrt(np.maximum(variance, 0.0))
+        std: np.ndarray = np.sqrt(np.maximum(variance, 0.0))
+        return std
 
 
 # --------------------------------------------------------------------------------------------
@@ -211,12 +223,13 @@ class WorstCase:
     @property
     def half_band(self) -> np.ndarray:
         """``max(|lower|, |upper|)`` per output: the exact worst-case half band."""
-        return np.maximum(np.abs(self.lower), np.abs(self.upper))
+        band: np.ndarray = np.maximum(np.abs(self.lower), np.abs(self.upper))
+        return band
 
 
 def exact_worst_case(
-    mechanism,
-    outputs,
+    mechanism: Mechanism,
+    outputs: Iterable[Output | str],
     q: np.ndarray | None = None,
     closure: BatchClosure | None = None,
     max_vertices: int = 4096,
@@ -244,7 +257,7 @@ def exact_worst_case(
     for i in range(n_out):
         for sign in (1.0, -1.0):
 
-            def f(x, i=i, sign=sign):
+            def f(x: np.ndarray, i: int = i, sign: float = sign) -> np.ndarray:
                 return sign * closure.solve(np.atleast_2d(x))[:, i]
 
             start = vertices[int(np.argmax(sign * values[:, i]))]
@@ -263,8 +276,9 @@ def _vertices(half: np.ndarray, matrix: np.ndarray, max_vertices: int) -> np.nda
     n = len(half)
     if 2**n <= max_vertices:
         signs = np.array(list(itertools.product((-1.0, 1.0), repeat=n)))
-        return signs * half
-    starts = []
+        corners: np.ndarray = signs * half
+        return corners
+    starts: list[np.ndarray] = []
     for row in matrix:
         for sign in (1.0, -1.0):
             base = np.where(sign * row >= 0, 1.0, -1.0)
@@ -273,10 +287,13 @@ def _vertices(half: np.ndarray, matrix: np.ndarray, max_vertices: int) -> np.nda
                 flipped = base.copy()
                 flipped[j] = -flipped[j]
                 starts.append(flipped)
-    return np.unique(np.array(starts), axis=0) * half
+    chosen: np.ndarray = np.unique(np.array(starts), axis=0) * half
+    return chosen
 
 
-def _projected_newton(f, x: np.ndarray, half: np.ndarray, max_iterations: int):
+def _projected_newton(
+    f: Objective, x: np.ndarray, half: np.ndarray, max_iterations: int
+) -> tuple[np.ndarray, float, float]:
     """Maximise ``f`` over ``|x_j| <= half_j`` from ``x``; returns (x, f(x), projected gradient)."""
     n = len(x)
     scale = np.where(half > 0, half, 1.0)
@@ -312,7 +329,7 @@ def _projected_newton(f, x: np.ndarray, half: np.ndarray, max_iterations: int):
     return x, value, pg
 
 
-def _derivatives(f, x: np.ndarray, h: np.ndarray):
+def _derivatives(f: Objective, x: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Central finite-difference gradient and Hessian of ``f`` at ``x`` (one batched call)."""
     n = len(x)
     points = [x]

@@ -43,8 +43,9 @@ from __future__ import annotations
 
 import re
 import warnings
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import pinocchio as pin
@@ -68,6 +69,9 @@ from ..model.dimensions import Dimension
 from ..model.frames import frame_id
 from .dimensions import affected_frames
 from .statistics import rss_band, worst_case_band
+
+if TYPE_CHECKING:
+    from ..mechanism import Mechanism
 
 __all__ = [
     "Output",
@@ -130,10 +134,12 @@ def parse_output(model: pin.Model, spec: str) -> Output:
     match = re.fullmatch(r"(.+)\.(x|y|z|rx|ry|rz)", target)
     if match and model.existFrame(match.group(1)):
         frame, axis = match.groups()
-        kind = "orientation" if axis.startswith("r") else "position"
-        return Output(
-            name.strip() or target, kind, frame, frame_id(model, frame), COMPONENTS[axis]
+        kind: Literal["position", "orientation"] = (
+            "orientation" if axis.startswith("r") else "position"
         )
+        index = frame_id(model, frame)
+        assert index is not None  # the frame exists
+        return Output(name.strip() or target, kind, frame, index, COMPONENTS[axis])
     if model.existJointName(target) and model.getJointId(target) > 0:
         joint_id = model.getJointId(target)
         if model.joints[joint_id].nv != 1:
@@ -148,7 +154,9 @@ def parse_output(model: pin.Model, spec: str) -> Output:
     raise _unknown_output(model, spec, target, match)
 
 
-def _unknown_output(model: pin.Model, spec: str, target: str, match) -> NotFoundError:
+def _unknown_output(
+    model: pin.Model, spec: str, target: str, match: re.Match[str] | None
+) -> NotFoundError:
     """The error for an output spec that names no frame and no joint: the frame if the spec
     reads FRAME.component, else the joint, listing the frames and the joints."""
     frames = sorted({f.name for f in model.frames if f.type == pin.FrameType.BODY})
@@ -210,7 +218,8 @@ class Sensitivities:
         """The sensitivities of the output called ``name``, shape (n_dim,)."""
         for i, output in enumerate(self.outputs):
             if output.name == name:
-                return self.matrix[i]
+                row: np.ndarray = self.matrix[i]
+                return row
         raise NotFoundError("output", name, [o.name for o in self.outputs], "Sensitivities.row")
 
 
@@ -245,8 +254,8 @@ def dimension_columns(
 
 
 def sensitivities(
-    mechanism,
-    outputs,
+    mechanism: Mechanism,
+    outputs: Iterable[Output | str],
     q: np.ndarray | None = None,
     dimensions: tuple[Dimension, ...] | None = None,
     closed: bool = False,
@@ -275,7 +284,7 @@ def sensitivities(
             f"{mechanism.source}: no toleranced dimension; add <dimension> "
             "elements to the <clearance_pin> block"
         )
-    outputs = tuple(o if isinstance(o, Output) else parse_output(model, o) for o in outputs)
+    parsed = tuple(o if isinstance(o, Output) else parse_output(model, o) for o in outputs)
     if not closed:
         q = mechanism.configure(q).q
     q = np.asarray(q, dtype=float)
@@ -288,17 +297,17 @@ def sensitivities(
         mechanism, data, dimensions, basis, masks
     )
     dq = basis @ s_passive
-    _refuse_idle_outputs(model, data, outputs, basis @ idle)
+    _refuse_idle_outputs(model, data, parsed, basis @ idle)
     matrix = (
-        np.vstack([_output_row(model, data, dimensions, o, dq, masks) for o in outputs])
-        if outputs
+        np.vstack([_output_row(model, data, dimensions, o, dq, masks) for o in parsed])
+        if parsed
         else np.zeros((0, len(dimensions)))
     )
     return Sensitivities(
         q.copy(),
-        outputs,
+        parsed,
         dimensions,
-        output_values(model, data, q, outputs),
+        output_values(model, data, q, parsed),
         matrix,
         s_passive,
         tuple(loop_passive_indices(mechanism)),
@@ -306,7 +315,7 @@ def sensitivities(
     )
 
 
-def loop_passive_indices(mechanism) -> list[int]:
+def loop_passive_indices(mechanism: Mechanism) -> list[int]:
     """Velocity indices of the passive joints that carry a loop frame (the unknowns ``q``).
 
     A passive joint outside every loop (a free-hanging link) is not determined by the closure;
@@ -321,7 +330,11 @@ def loop_passive_indices(mechanism) -> list[int]:
 
 
 def _passive_sensitivities(
-    mechanism, data: pin.Data, dimensions, basis: np.ndarray, masks
+    mechanism: Mechanism,
+    data: pin.Data,
+    dimensions: tuple[Dimension, ...],
+    basis: np.ndarray,
+    masks: list[np.ndarray],
 ) -> tuple[np.ndarray, float, np.ndarray]:
     """``S_q = -Phi_q^+ Phi_d`` (least squares on length-scaled rows, minimum norm), the
     conditioning, and the idle passive motions (null space of ``Phi_q``: a rod between two ball
@@ -332,7 +345,9 @@ def _passive_sensitivities(
         return np.zeros((0, len(dimensions))), 1.0, np.zeros((0, 0))
     length = mechanism.length_scale()
     _, selections = closure_residual(mechanism, data)
-    phi_q, phi_d, weights = [], [], []
+    phi_q: list[np.ndarray] = []
+    phi_d: list[np.ndarray] = []
+    weights: list[list[float]] = []
     for loop, rows, oMc in selections:
         to_c = oMc.inverse().action
         j_ab = pin.getFrameJacobian(model, data, loop.frame_b, pin.WORLD) - pin.getFrameJacobian(
@@ -350,8 +365,11 @@ def _passive_sensitivities(
     # them is a singular position
     idle_count = idle_motion_count(mechanism) if n_passive else 0
     expected = n_passive - idle_count
-    _, singular, vt = np.linalg.svd(a, full_matrices=True) if a.size else (None, np.zeros(0), None)
-    idle = vt[expected:].T if a.size else np.zeros((n_passive, 0))
+    if a.size:
+        _, singular, vt = np.linalg.svd(a, full_matrices=True)
+        idle = vt[expected:].T
+    else:
+        singular, idle = np.zeros(0), np.zeros((n_passive, 0))
     kept = singular[:expected]
     conditioning = float(kept[-1] / kept[0]) if kept.size and kept[0] > 0 else 0.0
     if expected and (kept.size < expected or conditioning < SINGULAR_TOL):
@@ -385,7 +403,9 @@ def _passive_sensitivities(
     return s, conditioning, idle
 
 
-def _refuse_idle_outputs(model, data, outputs, idle: np.ndarray) -> None:
+def _refuse_idle_outputs(
+    model: pin.Model, data: pin.Data, outputs: Iterable[Output], idle: np.ndarray
+) -> None:
     """An output that an idle motion moves (the orientation of a rod spinning freely between
     two ball joints) is not determined by the loop closure: refuse it by name."""
     for output in outputs:
@@ -397,7 +417,7 @@ def _refuse_idle_outputs(model, data, outputs, idle: np.ndarray) -> None:
             )
 
 
-def _moved_by_idle(model, data, output: Output, idle: np.ndarray) -> bool:
+def _moved_by_idle(model: pin.Model, data: pin.Data, output: Output, idle: np.ndarray) -> bool:
     """Does an idle motion (columns of ``idle``, velocity space (nv, n_idle)) move the output?"""
     if not idle.size:
         return False
@@ -412,13 +432,15 @@ def _moved_by_idle(model, data, output: Output, idle: np.ndarray) -> bool:
     return bool(np.max(moved, initial=0.0) > 1e-9 * max(1.0, float(np.max(np.abs(idle)))))
 
 
-def determined_outputs(mechanism, outputs, q: np.ndarray | None = None) -> tuple[Output, ...]:
+def determined_outputs(
+    mechanism: Mechanism, outputs: Iterable[Output | str], q: np.ndarray | None = None
+) -> tuple[Output, ...]:
     """The outputs that the loop closure determines at ``q`` (default nominal): those no idle
     motion moves (a rod between two ball joints spins freely; its orientation is not one)."""
     model = mechanism.model
-    outputs = tuple(o if isinstance(o, Output) else parse_output(model, o) for o in outputs)
+    parsed = tuple(o if isinstance(o, Output) else parse_output(model, o) for o in outputs)
     if not mechanism.loop_joints or not idle_motion_count(mechanism):
-        return outputs
+        return parsed
     q = mechanism.configure(q).q
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
@@ -432,20 +454,31 @@ def determined_outputs(mechanism, outputs, q: np.ndarray | None = None) -> tuple
     jacobian = weights[:, None] * closure_jacobian(mechanism, data, selections, basis)
     vt = np.linalg.svd(jacobian, full_matrices=True)[2]
     idle = basis @ vt[basis.shape[1] - idle_motion_count(mechanism) :].T
-    return tuple(o for o in outputs if not _moved_by_idle(model, data, o, idle))
+    return tuple(o for o in parsed if not _moved_by_idle(model, data, o, idle))
 
 
-def _output_row(model, data, dimensions, output: Output, dq: np.ndarray, masks) -> np.ndarray:
+def _output_row(
+    model: pin.Model,
+    data: pin.Data,
+    dimensions: tuple[Dimension, ...],
+    output: Output,
+    dq: np.ndarray,
+    masks: list[np.ndarray],
+) -> np.ndarray:
+    row: np.ndarray
     if output.kind == "joint":
-        return dq[model.joints[output.index].idx_v].copy()
+        row = dq[model.joints[output.index].idx_v].copy()
+        return row
     twist = pin.getFrameJacobian(model, data, output.index, pin.WORLD) @ dq + dimension_columns(
         model, data, dimensions, output.index, masks
     )
     if output.kind == "orientation":
-        return twist[3 + output.component]
+        row = twist[3 + output.component]
+        return row
     point = data.oMf[output.index].translation
     linear = twist[:3] - np.cross(point, twist[3:].T).T  # velocity of the frame origin
-    return linear[output.component]
+    row = linear[output.component]
+    return row
 
 
 def _joint_value(model: pin.Model, q: np.ndarray, joint_id: int) -> float:
@@ -455,11 +488,13 @@ def _joint_value(model: pin.Model, q: np.ndarray, joint_id: int) -> float:
     return float(q[joint.idx_q])
 
 
-def output_values(model: pin.Model, data: pin.Data, q: np.ndarray, outputs) -> np.ndarray:
+def output_values(
+    model: pin.Model, data: pin.Data, q: np.ndarray, outputs: Iterable[Output]
+) -> np.ndarray:
     """Output values [m or rad] at ``q`` (needs ``framesForwardKinematics`` in ``data``).
 
     Orientation outputs are components of the world rotation vector ``log3(oR_f)``."""
-    values = []
+    values: list[float] = []
     for output in outputs:
         if output.kind == "joint":
             values.append(_joint_value(model, q, output.index))
@@ -471,7 +506,7 @@ def output_values(model: pin.Model, data: pin.Data, q: np.ndarray, outputs) -> n
 
 
 def output_deviations(
-    model0: pin.Model, q0: np.ndarray, model1: pin.Model, q1: np.ndarray, outputs
+    model0: pin.Model, q0: np.ndarray, model1: pin.Model, q1: np.ndarray, outputs: Iterable[Output]
 ) -> np.ndarray:
     """Exact output deviations from (model0, q0) to (model1, q1) [m or rad], shape (n_out,).
 
@@ -481,7 +516,7 @@ def output_deviations(
     pin.framesForwardKinematics(model0, d0, q0)
     pin.framesForwardKinematics(model1, d1, q1)
     dv = pin.difference(model0, q0, q1)
-    values = []
+    values: list[float] = []
     for output in outputs:
         if output.kind == "joint":
             values.append(float(dv[model0.joints[output.index].idx_v]))

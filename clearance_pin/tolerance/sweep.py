@@ -28,19 +28,28 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 import time
 import warnings
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, overload
 
 import numpy as np
+import pinocchio as pin
 
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.clearance import ALPHA, U
+from ..model.dimensions import Dimension
 from ..model.joints import MOTION_COMPONENT_BY_PIN_JOINT
 from ..model.plausibility import LIMIT_SLACK, limits_of
 from ..progress import Progress
 from .monte_carlo import BatchClosure, MonteCarloResult, WorstCase, exact_worst_case, monte_carlo
 from .sensitivity import Output, Sensitivities, parse_output, sensitivities
+
+if TYPE_CHECKING:
+    from ..mechanism import Mechanism
+    from ..model.loads import Gravity, Load
 
 __all__ = [
     "Budget",
@@ -91,7 +100,7 @@ class Sweep:
     offset: float
     configurations: np.ndarray
     outputs: tuple[Output, ...]
-    dimensions: tuple
+    dimensions: tuple[Dimension, ...]
     values: np.ndarray
     matrix: np.ndarray
     worst: np.ndarray
@@ -110,7 +119,8 @@ class Sweep:
                 f"the sweep of prismatic joint {self.joint!r} is a travel in m, not an angle: "
                 "read phi [m] or display()"
             )
-        return np.degrees(self.phi)
+        degrees: np.ndarray = np.degrees(self.phi)
+        return degrees
 
     @property
     def symbol(self) -> str:
@@ -122,9 +132,15 @@ class Sweep:
         """Unit of :meth:`display`: ``"deg"`` or ``"mm"``."""
         return _DISPLAY[self.unit][1]
 
-    def display(self, value=None):
+    @overload
+    def display(self, value: None = None) -> np.ndarray: ...
+    @overload
+    def display(self, value: float) -> float: ...
+    @overload
+    def display(self, value: np.ndarray) -> np.ndarray | float: ...
+    def display(self, value: float | np.ndarray | None = None) -> np.ndarray | float:
         """A motion parameter value (default: every position's) in :attr:`display_unit`
-        [deg or mm], from [rad or m]."""
+        [deg or mm], from [rad or m] (a float for a float or a 0-d array)."""
         value = self.phi if value is None else value
         if self.unit == "rad":
             return np.degrees(value) if np.ndim(value) else math.degrees(float(value))
@@ -138,13 +154,13 @@ class Sweep:
         raise NotFoundError("output", name, [o.name for o in self.outputs], "Sweep.index")
 
 
-def driven_joint(mechanism, joint: str | None = None) -> int:
+def driven_joint(mechanism: Mechanism, joint: str | None = None) -> int:
     """Pinocchio id of the joint to sweep: ``joint``, or the mechanism's only driven joint."""
     model = mechanism.model
     if joint is not None:
         if not model.existJointName(joint) or model.getJointId(joint) == 0:
             raise NotFoundError("joint", joint, model.names[1:], mechanism.source)
-        joint_id = model.getJointId(joint)
+        joint_id: int = model.getJointId(joint)
     else:
         driven = [j.joint_id for j in mechanism.tree_joints if j.driven]
         if len(driven) != 1:
@@ -162,7 +178,7 @@ def driven_joint(mechanism, joint: str | None = None) -> int:
     return joint_id
 
 
-def joint_unit(mechanism, joint_id: int) -> str:
+def joint_unit(mechanism: Mechanism, joint_id: int) -> str:
     """Unit of a 1-DOF joint's value: ``"rad"`` (revolute, continuous) or ``"m"`` (prismatic).
 
     Raises:
@@ -181,7 +197,7 @@ def joint_unit(mechanism, joint_id: int) -> str:
     )
 
 
-def step_limit(mechanism, joint_id: int) -> float:
+def step_limit(mechanism: Mechanism, joint_id: int) -> float:
     """Largest step of the joint between two loop closures [rad or m]: :data:`MAX_STEP` for a
     revolute joint, :data:`PRISMATIC_STEP` of the mechanism's length scale for a prismatic one."""
     if joint_unit(mechanism, joint_id) == "rad":
@@ -189,14 +205,14 @@ def step_limit(mechanism, joint_id: int) -> float:
     return PRISMATIC_STEP * mechanism.length_scale()
 
 
-def _joint_value(model, q: np.ndarray, joint_id: int) -> float:
+def _joint_value(model: pin.Model, q: np.ndarray, joint_id: int) -> float:
     joint = model.joints[joint_id]
     if joint.nq == 2:
         return math.atan2(q[joint.idx_q + 1], q[joint.idx_q])
     return float(q[joint.idx_q])
 
 
-def _set_joint(model, q: np.ndarray, joint_id: int, value: float) -> np.ndarray:
+def _set_joint(model: pin.Model, q: np.ndarray, joint_id: int, value: float) -> np.ndarray:
     q = q.copy()
     joint = model.joints[joint_id]
     if joint.nq == 2:
@@ -207,7 +223,11 @@ def _set_joint(model, q: np.ndarray, joint_id: int, value: float) -> np.ndarray:
 
 
 def closed_configuration(
-    mechanism, joint_id: int, value: float, q_from: np.ndarray, value_from: float | None = None
+    mechanism: Mechanism,
+    joint_id: int,
+    value: float,
+    q_from: np.ndarray,
+    value_from: float | None = None,
 ) -> np.ndarray:
     """Close the loops with the joint at ``value`` [rad or m], walking from ``q_from`` (a closed
     configuration, the joint at ``value_from``, default read from it) in steps of at most
@@ -224,8 +244,8 @@ def closed_configuration(
 
 
 def sweep(
-    mechanism,
-    outputs,
+    mechanism: Mechanism,
+    outputs: Iterable[Output | str],
     joint: str | None = None,
     positions: int = 25,
     start: float | None = None,
@@ -271,7 +291,7 @@ def sweep(
     joint_id = driven_joint(mechanism, joint)
     unit = joint_unit(mechanism, joint_id)
     start, stop = _sweep_range(model, joint_id, unit, start, stop, offset)
-    outputs = tuple(o if isinstance(o, Output) else parse_output(model, o) for o in outputs)
+    parsed = tuple(o if isinstance(o, Output) else parse_output(model, o) for o in outputs)
     sign = -1.0 if clockwise else 1.0
     phi = np.linspace(start, stop, positions) if positions > 1 else np.array([start])
     _check_limits(model, joint_id, unit, offset + sign * phi, (start, stop))
@@ -283,22 +303,25 @@ def sweep(
         enabled=progress if progress is not None else (None if samples else False),
     )
     rows: list[Sensitivities] = []
-    uniform, normal, worst_cases, configurations = [], [], [], []
+    uniform: list[MonteCarloResult] = []
+    normal: list[MonteCarloResult] = []
+    worst_cases: list[WorstCase] = []
+    configurations: list[np.ndarray] = []
     for k, parameter in enumerate(phi):
         target = offset + sign * parameter
         q = closed_configuration(mechanism, joint_id, target, q, current)
         current = target
         configurations.append(q)
-        linear = sensitivities(mechanism, outputs, q, closed=True)
+        linear = sensitivities(mechanism, parsed, q, closed=True)
         rows.append(linear)
         if samples or exact:
-            closure = BatchClosure(mechanism, outputs, q, linear=linear)
+            closure = BatchClosure(mechanism, parsed, q, linear=linear)
             if samples:
                 for runs, law in ((uniform, "uniform"), (normal, "normal")):
                     runs.append(
                         monte_carlo(
                             mechanism,
-                            outputs,
+                            parsed,
                             samples=samples,
                             distribution=law,
                             seed=seed + k,
@@ -307,7 +330,7 @@ def sweep(
                         )
                     )
             if exact:
-                worst_cases.append(exact_worst_case(mechanism, outputs, closure=closure))
+                worst_cases.append(exact_worst_case(mechanism, parsed, closure=closure))
         bar.update()
     bar.close()
     return Sweep(
@@ -316,7 +339,7 @@ def sweep(
         sign,
         offset,
         np.array(configurations),
-        outputs,
+        parsed,
         rows[0].dimensions,
         np.array([r.values for r in rows]),
         np.array([r.matrix for r in rows]),
@@ -330,7 +353,14 @@ def sweep(
     )
 
 
-def _sweep_range(model, joint_id: int, unit: str, start, stop, offset) -> tuple[float, float]:
+def _sweep_range(
+    model: pin.Model,
+    joint_id: int,
+    unit: str,
+    start: float | None,
+    stop: float | None,
+    offset: float,
+) -> tuple[float, float]:
     """``(start, stop)`` [rad or m] of a sweep: a revolute joint's default turn, checked finite."""
     if unit == "rad":
         start = 0.0 if start is None else start
@@ -348,10 +378,13 @@ def _sweep_range(model, joint_id: int, unit: str, start, stop, offset) -> tuple[
             raise ArgumentError(argument, f"a number [{unit}]", value)
         if not math.isfinite(value):
             raise ArgumentError(argument, f"a finite number [{unit}]", value)
+    assert start is not None and stop is not None  # refused above
     return start, stop
 
 
-def _check_limits(model, joint_id: int, unit: str, values: np.ndarray, span) -> None:
+def _check_limits(
+    model: pin.Model, joint_id: int, unit: str, values: np.ndarray, span: tuple[float, float]
+) -> None:
     """Refuse joint values [rad or m] of a sweep outside the joint's URDF limits."""
     limits = limits_of(model, joint_id)
     if limits is None:
@@ -368,7 +401,9 @@ def _check_limits(model, joint_id: int, unit: str, values: np.ndarray, span) -> 
     )
 
 
-def _band_at(mechanism, result: Sweep, output: int, band: str, parameter: float) -> float:
+def _band_at(
+    mechanism: Mechanism, result: Sweep, output: int, band: str, parameter: float
+) -> float:
     """The band of one output with the motion parameter at ``parameter`` [rad or m]."""
     joint_id = driven_joint(mechanism, result.joint)
     nearest = int(np.argmin(np.abs(result.phi - parameter)))
@@ -384,7 +419,7 @@ def _band_at(mechanism, result: Sweep, output: int, band: str, parameter: float)
 
 
 def cycle_maximum(
-    mechanism,
+    mechanism: Mechanism,
     result: Sweep,
     output: str,
     band: str = "worst",
@@ -441,7 +476,7 @@ def cycle_maximum(
     return best_value, best_phi
 
 
-def _golden(f, lo: float, hi: float, tol: float) -> tuple[float, float]:
+def _golden(f: Callable[[float], float], lo: float, hi: float, tol: float) -> tuple[float, float]:
     """Maximise a unimodal ``f`` on ``[lo, hi]``; returns (x, f(x))."""
     a, b = lo, hi
     c, d = b - _GOLDEN * (b - a), a + _GOLDEN * (b - a)
@@ -481,15 +516,23 @@ class Budget:
     @property
     def total_worst(self) -> np.ndarray:
         """``|clearance| + worst``: the largest deviation from nominal, worst case."""
-        return np.abs(self.clearance) + self.worst
+        total: np.ndarray = np.abs(self.clearance) + self.worst
+        return total
 
     @property
     def total_rss(self) -> np.ndarray:
         """``|clearance| + rss``: the same with the statistical band."""
-        return np.abs(self.clearance) + self.rss
+        total: np.ndarray = np.abs(self.clearance) + self.rss
+        return total
 
 
-def clearance_budget(mechanism, result: Sweep, output: str, loads=None, gravity=None) -> Budget:
+def clearance_budget(
+    mechanism: Mechanism,
+    result: Sweep,
+    output: str,
+    loads: Sequence[Load] | None = None,
+    gravity: bool | Gravity | None = None,
+) -> Budget:
     """The combined budget of an output: clearance deviation and tolerance bands over a sweep.
 
     At each position the equilibrium engine (:meth:`Mechanism.solve`, the model's loads unless
@@ -505,7 +548,7 @@ def clearance_budget(mechanism, result: Sweep, output: str, loads=None, gravity=
             "the clearance budget needs a frame output (position or "
             "orientation), not a joint coordinate"
         )
-    deviations = []
+    deviations: list[float] = []
     for q in result.configurations:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # near dead centres the engine warns; values hold
@@ -523,7 +566,11 @@ def clearance_budget(mechanism, result: Sweep, output: str, loads=None, gravity=
 
 
 def plot_sweep(
-    result: Sweep, path, budget: Budget | None = None, scale: dict | None = None, title: str = ""
+    result: Sweep,
+    path: str | os.PathLike[str],
+    budget: Budget | None = None,
+    scale: dict[str, tuple[float, str]] | None = None,
+    title: str = "",
 ) -> None:
     """Write a PNG of the bands over the sweep, with the Monte Carlo points and the budget.
 
