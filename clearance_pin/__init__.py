@@ -13,6 +13,8 @@ Build once, solve many (run from the repository's root; tests/test_docs_examples
 (61.343, 61.343)
 """
 
+from typing import TYPE_CHECKING
+
 from .equilibrium.batch import EquilibriumBatch
 from .equilibrium.result import Contact, Equilibrium
 from .errors import (
@@ -30,6 +32,9 @@ from .errors import (
 from .loading import load, loads
 from .mechanism import Mechanism
 from .model.loads import Gravity, PointForce, Torque
+
+if TYPE_CHECKING:  # imported on first use (__getattr__)
+    from .check.report import CheckReport
 
 __version__ = "0.1.0"
 
@@ -57,7 +62,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> object:
     """``clearance_pin.CheckReport`` on first use: the check package loads coal, which a solve
     never needs."""
     if name == "CheckReport":

@@ -25,6 +25,8 @@ import json
 import sys
 import warnings
 from pathlib import Path
+from types import ModuleType
+from typing import Any, TextIO
 
 from .errors import ClearancePinError, SolverError, UnboundedLoadError
 
@@ -109,6 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
         "repeatable; ROS_PACKAGE_PATH is searched too); only --check reads meshes",
     )
     solve.set_defaults(run=_solve)
+    tolerance_command: ModuleType | None
     try:
         from .tolerance import command as tolerance_command
     except ImportError:
@@ -120,18 +123,25 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _model_options(args: argparse.Namespace) -> dict:
+def _model_options(args: argparse.Namespace) -> dict[str, Any]:
     """Keyword arguments of :func:`clearance_pin.load` from the command line."""
     return {"package_dirs": args.package_dir}
 
 
-def _one_line_warnings(message, category, filename, lineno, file=None, line=None) -> None:
+def _one_line_warnings(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: TextIO | None = None,
+    line: str | None = None,
+) -> None:
     """Warnings as one line on standard error, without Python's source echo."""
     text = " ".join(str(message).splitlines())
     print(f"clearance-pin: warning ({category.__name__}): {text}", file=sys.stderr)
 
 
-def _say(args: argparse.Namespace, text: str) -> None:
+def _say(args: argparse.Namespace, text: object) -> None:
     """One line on standard error, ``clearance-pin: MODEL: text`` (the model named once)."""
     line = " ".join(str(text).splitlines())
     model = getattr(args, "model", None)
@@ -145,7 +155,8 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     warnings.showwarning = _one_line_warnings
     try:
-        return args.run(args)
+        status: int = args.run(args)
+        return status
     except UnboundedLoadError as exc:
         _say(args, exc)
         return NO_EQUILIBRIUM
