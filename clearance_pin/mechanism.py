@@ -102,7 +102,7 @@ class Mechanism:
         self.link_frames = {
             f.name: i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY
         }
-        self.joints = {j.name: j for j in self.tree_joints}
+        self.joints: dict[str, TreeJoint | LoopJoint] = {j.name: j for j in self.tree_joints}
         self.joints.update({j.name: j for j in self.loop_joints})
         if len(self.joints) != len(self.tree_joints) + len(self.loop_joints):
             raise ModelError(source, "<joints>", "joint names must be unique across tree and loops")
@@ -181,16 +181,21 @@ class Mechanism:
                 # (a misaligned housing) keeps a residual, which must not re-close on every call.
                 # Keyed by the model and joints, so a copy with other dimensions starts afresh.
                 owner = (self.model, self.tree_joints, self.loop_joints)
-                cache = getattr(self, "_closed_for", None)
+                cache: tuple[tuple, dict[bytes, np.ndarray]] | None = getattr(
+                    self, "_closed_for", None
+                )
                 if cache is None or any(a is not b for a, b in zip(cache[0], owner)):
-                    cache = self._closed_for = (owner, {})
+                    cache = (owner, {})
+                    self._closed_for = cache
                 known = cache[1].get(q.tobytes())
                 residual, _ = closure_residual(self, data) if known is None else (None, None)
                 if known is not None:
                     q = known.copy()
                     self._last_closed = known
                     pin.framesForwardKinematics(self.model, data, q)
-                elif np.max(np.abs(residual), initial=0.0) > 1e-12 * self.length_scale():
+                elif residual is not None and (
+                    np.max(np.abs(residual), initial=0.0) > 1e-12 * self.length_scale()
+                ):
                     requested = q.tobytes()
                     start = self._closed_start(q)
                     q = follow_branch(self, start, q) if start is not None else close_loops(self, q)
@@ -232,7 +237,7 @@ class Mechanism:
             data = self.model.createData()
             pin.forwardKinematics(self.model, data, self.q_nominal)
             pin.updateFramePlacements(self.model, data)
-            extent = max((np.linalg.norm(m.translation) for m in data.oMi), default=0.0)
+            extent = max((float(np.linalg.norm(m.translation)) for m in data.oMi), default=0.0)
             lengths = [
                 j.clearance.length for j in self.joints.values() if j.clearance.max_play > 0.0
             ]

@@ -183,4 +183,4 @@ def test_batch_frame_displacements_are_the_items_ones():
     for i in range(5):
         t, r = batch[i].frame_displacement("tool")
         assert np.array_equal(translations[i], t) and np.array_equal(rotations[i], r)
-    assert cp.EquilibriumBatch is type(batch) and cp.CheckReport is not None
+    assert isinstance(batch, cp.EquilibriumBatch) and cp.CheckReport is not None

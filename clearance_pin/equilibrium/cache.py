@@ -86,11 +86,11 @@ class SolveCache:
             for stale in [k for k in self.geometry_terms if k not in live]:
                 del self.geometry_terms[stale]
 
-    def __getstate__(self) -> dict:
+    def __getstate__(self) -> dict[str, pin.Model]:
         return {"model": self._model}  # built state is rebuilt on demand where it is unpickled
 
-    def __setstate__(self, state: dict) -> None:
-        self.__init__(state["model"])
+    def __setstate__(self, state: dict[str, pin.Model]) -> None:
+        SolveCache.__init__(self, state["model"])
 
 
 __all__ = ["GEOMETRIES_KEPT", "SolveCache"]

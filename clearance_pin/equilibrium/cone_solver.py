@@ -25,6 +25,7 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -112,7 +113,7 @@ class IpoptBackend:
             "f": ca.dot(f, y),
             "g": ca.vertcat(*constraints) if constraints else ca.SX(0, 1),
         }
-        options = {
+        options: dict[str, Any] = {
             "print_time": False,
             "ipopt.print_level": 0,
             "ipopt.sb": "yes",
@@ -163,7 +164,10 @@ class ClarabelBackend:
         self._settings = settings
         # per contact: its cone, its rows of b, and how its dual variables give the multiplier
         # (d||Py||/dy = (1/2) d||Py||^2/dy on the sphere; a slab's two sides add)
-        cones, b, weights, starts = [], [], [], []
+        cones: list = []
+        b: list[float] = []
+        weights: list[float] = []
+        starts: list[int] = []
         for shape, k in shapes:
             starts.append(len(b))
             if shape == "norm":

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -56,7 +57,7 @@ class ExactParts:
 class ExactProblem:
     """The exact NLP of one mechanism structure, built once (parameters: q, loads, clearances)."""
 
-    def __init__(self, mechanism, linear_problem, equality_rows: np.ndarray, tol: float):
+    def __init__(self, mechanism, linear_problem, equality_rows: tuple[int, ...], tol: float):
         started = time.perf_counter()
         model = mechanism.model
         self.mechanism = mechanism
@@ -102,7 +103,7 @@ class ExactProblem:
             oMb = compose(kin.frame_placement(placed, loop.frame_b), C_b)
             relative[loop.name] = compose(inverse(oMa), oMb)
 
-        energy = 0
+        energy = ca.SX(0)
         for body in range(1, nbody):
             params = load_params[:, body]
             R, t = placed[body]
@@ -150,7 +151,7 @@ class ExactProblem:
             1,
         )
         nlp = {"x": z, "p": parameters, "f": energy / sigma, "g": constraints}
-        options = {
+        options: dict[str, Any] = {
             "print_time": False,
             "ipopt.print_level": 0,
             "ipopt.sb": "yes",
@@ -368,7 +369,7 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     if not equilibrium.ok:
         raise SolverError(
             "the exact solve did not reach a verified optimum",
-            stats["return_status"],
+            str(stats["return_status"]),
             equilibrium.residuals,
             equilibrium,
         )
@@ -445,7 +446,8 @@ def polish_exact(
     targets = np.concatenate([target, np.zeros(lower.size - n_in)])[active]
     z, lam = z.copy(), lam.copy()
     n = z.size
-    previous, best = np.inf, (np.inf, None)
+    previous = np.inf
+    best: tuple[float, tuple[np.ndarray, np.ndarray, ExactParts] | None] = (np.inf, None)
     for _ in range(iterations):
         parts = exact.evaluate(z, params, lam)
         j_active = parts.jacobian[active]
@@ -467,7 +469,7 @@ def polish_exact(
         step = np.linalg.lstsq(kkt, -residual, rcond=None)[0]
         z += step[:n]
         lam[active] += step[n:]
-    if best[0] > ACCEPT_KKT:
+    if best[0] > ACCEPT_KKT or best[1] is None:
         return None
     z, lam, parts = best[1]
     g = parts.g

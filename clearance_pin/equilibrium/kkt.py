@@ -120,7 +120,7 @@ class StackedContacts:
         spaces = row_spaces(rows / max(1.0, float(np.abs(rows).max())), rtol=1e-9)
         return spaces.row, spaces.null
 
-    def values(self, y: np.ndarray, signs: np.ndarray) -> np.ndarray:
+    def values(self, y: np.ndarray, signs: np.ndarray | None) -> np.ndarray:
         """phi_j(y) for every contact (slabs on their side ``signs``; |.| if signs is None)."""
         image = self.matrix @ y + self.offset
         squares = np.add.reduceat(image * image, self.starts) if self.count else np.zeros(0)

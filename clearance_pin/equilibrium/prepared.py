@@ -17,6 +17,7 @@ times, so every load-independent product is formed here, and a solve costs a few
 from __future__ import annotations
 
 import statistics
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -221,7 +222,7 @@ class PreparedGeometry:
         out[self.terms.scatter] = forces
         return out.reshape(-1, 3)
 
-    def flat_directions(self, y, multipliers, signs) -> tuple[np.ndarray, LazySequence]:
+    def flat_directions(self, y, multipliers, signs) -> tuple[np.ndarray, Sequence[str]]:
         r"""Directions (r, k) along which the optimum at (y, multipliers) is not unique, with
         their descriptions.
 

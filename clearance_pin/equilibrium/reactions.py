@@ -140,8 +140,11 @@ class JointReactions:
             placement = self.joint_frames[joint]
             parts = [placement.actInv(pin.Force(part)).vector for part in parts]
             point = placement.translation.copy()
-        total = parts[0] + parts[1] + parts[2] + parts[3]
-        return Reaction(joint, frame, total[:3], total[3:], point, *parts, self.residual)
+        contact, rigid, drive, held = parts
+        total = contact + rigid + drive + held
+        return Reaction(
+            joint, frame, total[:3], total[3:], point, contact, rigid, drive, held, self.residual
+        )
 
 
 def joint_reactions(equilibrium) -> JointReactions:
@@ -269,12 +272,12 @@ def _tree_generators(joint, frames, exact: bool, held: bool = False):
         unit = np.eye(6)[component]
         direction = unit - basis @ (basis.T @ unit)
         drive.append(direction / np.linalg.norm(direction))
-    drive = np.array(drive).reshape(-1, 6).T
-    rigid = null_space(np.hstack([basis, drive]).T)
+    drives = np.array(drive).reshape(-1, 6).T
+    rigid = null_space(np.hstack([basis, drives]).T)
     if not exact:
-        return [("rigid", rigid, frames.child), ("drive", drive, frames.child)]
+        return [("rigid", rigid, frames.child), ("drive", drives, frames.child)]
     dual = pin.Jlog6(frames.relative).T
-    generators = [("rigid", dual @ rigid, frames.child), ("drive", dual @ drive, frames.child)]
+    generators = [("rigid", dual @ rigid, frames.child), ("drive", dual @ drives, frames.child)]
     free = [c for c in joint.clearance.free_components if c not in joint.locked_components]
     if held and free:
         generators.append(("held", dual @ np.eye(6)[:, free], frames.child))

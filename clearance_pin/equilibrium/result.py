@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal, cast
 
 import numpy as np
 import pinocchio as pin
@@ -30,6 +30,9 @@ from .outputs import output_displacements, resolve_outputs
 from .reactions import joint_reactions
 from .report import report
 from .residuals import Residuals
+
+if TYPE_CHECKING:  # the mechanism module imports this one
+    from ..mechanism import Configuration, Mechanism
 
 Formulation = Literal["linear", "exact"]
 Status = Literal["optimal", "indeterminate"]
@@ -158,12 +161,13 @@ class Equilibrium:
         Linear formulation: :math:`(v_b + \\omega_b \\times p_f, \\omega_b)` from the body twist;
         exact: the finite displacement, rotation as a rotation vector (log3).
         """
-        model = self.mechanism.model
-        if not model.existFrame(frame):
-            raise NotFoundError("frame", frame, [f.name for f in model.frames], self.mechanism.name)
+        mechanism = cast("Mechanism", self.mechanism)
+        model = mechanism.model
         frame_id = find_frame(model, frame)
+        if frame_id is None:
+            raise NotFoundError("frame", frame, [f.name for f in model.frames], mechanism.name)
         body = model.frames[frame_id].parentJoint
-        nominal = self.configuration.oMf[frame_id]
+        nominal = cast("Configuration", self.configuration).oMf[frame_id]
         if self.body_twists is not None:
             twist = self.body_twists[body]
             return twist[:3] + np.cross(twist[3:], nominal.translation), twist[3:].copy()
@@ -211,9 +215,10 @@ class Equilibrium:
         (:meth:`~clearance_pin.mechanism.Configuration.eccentricity`); aligned joints are left out.
         The joint's torsor is its motion from that eccentric place."""
         found = {}
-        mechanism = self.mechanism
+        mechanism = cast("Mechanism", self.mechanism)
+        configuration = cast("Configuration", self.configuration)
         for loop in getattr(mechanism, "loop_joints", ()):
-            offset = self.configuration.eccentricity(loop)
+            offset = configuration.eccentricity(loop)
             translation, rotation = offset.translation.copy(), pin.log3(offset.rotation)
             length = max(mechanism.length_scale(), 1.0)
             size = max(float(np.abs(translation).max()), length * float(np.abs(rotation).max()))

@@ -160,7 +160,11 @@ def estimate_difference(linear, loads, q, points) -> DifferenceEstimate:
     except UnsupportedError as exc:
         return _unreliable(points, f"no exact form: {exc}", 0.0)
 
-    loaded, rows_l, hessian, mu, residual_h = [], [], np.zeros((n, n)), [], []
+    loaded: list[int] = []
+    row_list: list[np.ndarray] = []
+    mu_list: list[float] = []
+    residual_h: list[float] = []
+    hessian = np.zeros((n, n))
     exact_gradient = at_x.gradient.copy()
     linear_gradient = at_zero.gradient.copy()
     linear_gradient_load = at_zero.gradient
@@ -184,13 +188,13 @@ def estimate_difference(linear, loads, q, points) -> DifferenceEstimate:
             row_l, row_e = side * s0[0], side * ex.jacobian[0]
             h_e = float(side * ex.d[0]) - point.bound
         loaded.append(j)
-        rows_l.append(row_l)
-        mu.append(size)
+        row_list.append(row_l)
+        mu_list.append(size)
         residual_h.append(h_e)
         exact_gradient += size * row_e
         linear_gradient += size * row_l
-    rows_l = np.array(rows_l).reshape(-1, n)
-    mu = np.array(mu)
+    rows_l = np.array(row_list).reshape(-1, n)
+    mu = np.array(mu_list)
     # loop reactions nu of the linear answer: g + sum mu grad h + E^T nu = 0
     e0 = at_zero.equality_jacobian
     nu = np.linalg.lstsq(e0.T, -linear_gradient, rcond=None)[0] if e0.size else np.zeros(0)

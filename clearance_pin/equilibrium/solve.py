@@ -79,7 +79,7 @@ def solve_linear(
         if second.polished or second.kkt_residual < solution.kkt_residual:
             second.status = f"{solution.status}, unverified; then {second.status}"
             solution, built, built_now = second, fallback, fallback_built
-    flat_notes = ()
+    flat_notes: Sequence[str] = ()
     if solution.polished:
         cache.warm[prepared.signature] = solution
         flat, flat_notes = prepared.flat_directions(
