@@ -56,6 +56,7 @@ def envelope(
     kinds: tuple[str, ...] = KINDS,
     tol: float = 1e-6,
     max_directions: int = 20000,
+    certificate: bool = True,
 ) -> Envelope:
     """The clearance envelope of ``output`` (module docstring).
 
@@ -69,6 +70,8 @@ def envelope(
         tol: relative gap (upper - lower) / upper of the certified maxima, in (0, 0.1].
         max_directions: support evaluations allowed per kind before giving up certification
             (the gap reached is then reported, ``certified=False``).
+        certificate: use the quadratic certificate of the best state's contact forces
+            (False: the direction grid alone bounds the maximum, for checks of the grid).
 
     Returns:
         :class:`Envelope`.
@@ -82,7 +85,11 @@ def envelope(
         raise ArgumentError("exact", "True or False", exact)
     if not isinstance(tol, (int, float)) or not 0.0 < tol <= 0.1:
         raise ArgumentError("tol", "a relative gap in (0, 0.1]", tol)
-    if isinstance(max_directions, bool) or not isinstance(max_directions, int) or max_directions < 8:
+    if (
+        isinstance(max_directions, bool)
+        or not isinstance(max_directions, int)
+        or max_directions < 8
+    ):
         raise ArgumentError("max_directions", "an int >= 8", max_directions)
     q_solve = None if q is None else _configuration(mechanism, q)
     configuration = mechanism.configure(q_solve)
@@ -96,6 +103,7 @@ def envelope(
         support = SupportFunction(mechanism, where, kind, q_solve)
         basis = space.bounded_span(kind)
         free = space.free_directions(kind)
+        support.span = basis
         world, frame, seed = _axis_ranges(support, basis, free, where.axes)
         extreme, evaluations = maximum(
             support.evaluate,
@@ -105,11 +113,12 @@ def envelope(
             tol=float(tol),
             max_directions=max_directions,
             seed=seed,
+            certificate=bool(certificate),
         )
         envelopes[kind] = KindEnvelope(kind, basis, free, extreme, world, frame, evaluations)
         supports[kind] = support
         timings[kind] = time.perf_counter() - start
-    exact_result = None
+    exact_result: dict[str, Any] | None = None
     if exact:
         from .exact import exact_extremes
 

@@ -20,6 +20,7 @@ a cell).
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 import numpy.typing as npt
@@ -27,6 +28,7 @@ import numpy.typing as npt
 Vector = npt.NDArray[np.float64]
 Cells = npt.NDArray[np.int64]
 FEASIBLE_RTOL = 1e-12  # a vertex may miss a constraint by this share of the scale
+TINY_CELL = 1e-6  # [rad] below this width a cell is bounded by max h / sqrt(cos theta)
 
 
 def circle(count: int) -> tuple[Vector, Cells]:
@@ -125,7 +127,11 @@ def cell_bounds(directions: Vector, values: Vector, cells: Cells) -> Vector:
         feasible = regular & np.all(inside, axis=1) & np.all(below, axis=1)
         norms = np.linalg.norm(delta, axis=1)
         best = np.where(feasible, np.maximum(best, norms), best)
-    return best
+    # a cell too small for the vertex systems to be told from singular ones: the cruder bound
+    # max h / sqrt(cos theta) (theta its widest angle: |W alpha|^2 >= cos theta on the simplex)
+    cosine = np.min(np.einsum("mik,mjk->mij", w, w), axis=(1, 2))
+    crude = np.max(h, axis=1) / np.sqrt(np.clip(cosine, 1e-300, 1.0))
+    return np.where(cosine > math.cos(TINY_CELL), crude, best)
 
 
 def _face_normals(w: Vector) -> Vector:
@@ -142,4 +148,4 @@ def _face_normals(w: Vector) -> Vector:
         )
     side = np.sign(np.einsum("mij,mij->mi", normals, w))
     normals = normals * np.where(side == 0.0, 1.0, side)[..., None]
-    return normals / np.linalg.norm(normals, axis=2, keepdims=True)
+    return np.asarray(normals / np.linalg.norm(normals, axis=2, keepdims=True), dtype=float)

@@ -43,9 +43,7 @@ from .state_space import StateSpace
 Vector = npt.NDArray[np.float64]
 
 
-def multiplier_bound(
-    space: StateSpace, projected: Vector, state: Any, deviation: float
-) -> float:
+def multiplier_bound(space: StateSpace, projected: Vector, state: Any, deviation: float) -> float:
     r"""The certificate's bound $U$ [m or rad] (module docstring); ``inf`` when it certifies
     nothing (no contact force, or the state's contacts are not the model's).
 

@@ -33,6 +33,7 @@ import numpy.typing as npt
 
 from . import cells as grid
 from .certificate import multiplier_bound
+from .output import Kind
 from .state_space import StateSpace
 from .support import SupportValues
 
@@ -117,11 +118,12 @@ def maximum(
     evaluate: Callable[[Vector], SupportValues],
     basis: Vector,
     space: StateSpace,
-    kind: str,
+    kind: Kind,
     tol: float = 1e-6,
     max_directions: int = 20000,
     initial: int | None = None,
     seed: SupportValues | None = None,
+    certificate: bool = True,
 ) -> tuple[Extreme, SupportValues]:
     """Certify the largest deviation (module docstring).
 
@@ -136,6 +138,8 @@ def maximum(
             level, default 1).
         seed: evaluations already made (the axis ranges): the ascent starts from the best of
             them, and when its state's certificate closes the gap no grid is solved.
+        certificate: use the quadratic certificate (False: the direction grid alone decides,
+            for checks of the grid).
 
     Returns:
         The :class:`Extreme` and every support evaluation made (world axes).
@@ -149,16 +153,16 @@ def maximum(
     if k == 1:
         record.add(evaluate(np.array([basis[:, 0], -basis[:, 0]])))
         best = record.best()
-        upper = max(max(record.values), float(np.linalg.norm(best[2])))
+        upper = max([*record.values, float(np.linalg.norm(best[2]))])
         return _extreme(kind, record, best, upper, "segment", True), _all(record)
-    projected = space.projected_map(kind, basis)  # type: ignore[arg-type]
+    projected = space.projected_map(kind, basis)
     if seed is not None and len(seed.states):
         record.add(seed, extra=True)
         best = _ascend(evaluate, record, record.best())
         lower = float(np.linalg.norm(best[2]))
-        certificate = multiplier_bound(space, projected, best[3], lower)
-        if certificate - lower <= tol * certificate:
-            upper = max(certificate, lower)
+        bound = multiplier_bound(space, projected, best[3], lower) if certificate else math.inf
+        if math.isfinite(bound) and bound - lower <= tol * bound:
+            upper = max(bound, lower)
             return _extreme(kind, record, best, upper, "multipliers", True), _all(record)
     if k == 2:
         unit, cells = grid.circle(initial or 16)
@@ -166,8 +170,9 @@ def maximum(
         unit, cells = grid.icosphere(1 if initial is None else initial)
     points = list(unit)
     midpoints: dict[tuple[int, int], int] = {}
-    record.add(evaluate(np.array(points) @ basis.T))
-    certificate = math.inf
+    _solve_grid(evaluate, record, points, 0)
+    use_certificate = certificate
+    certificate_bound = math.inf
     ascended: Any = None
     while True:
         best = record.best()
@@ -175,14 +180,15 @@ def maximum(
             best = _ascend(evaluate, record, best)
             ascended = best[3]
             lower = float(np.linalg.norm(best[2]))
-            certificate = multiplier_bound(space, projected, best[3], lower)
+            if use_certificate:
+                certificate_bound = multiplier_bound(space, projected, best[3], lower)
         lower = float(np.linalg.norm(best[2]))
         values = np.array(record.values)
         margin = SUPPORT_MARGIN * float(np.max(np.abs(values), initial=0.0))
         bounds = grid.cell_bounds(np.array(points), values + margin, cells)
         upper_grid = float(np.max(bounds, initial=0.0))
-        upper = max(min(upper_grid, certificate), lower)
-        method = "multipliers" if certificate <= upper_grid else "direction grid"
+        upper = max(min(upper_grid, certificate_bound), lower)
+        method = "multipliers" if certificate_bound <= upper_grid else "direction grid"
         target = lower * (1.0 + tol)
         if upper - lower <= tol * upper:
             return _extreme(kind, record, best, upper, method, True), _all(record)
@@ -196,7 +202,22 @@ def maximum(
         else:
             children = grid.split(cells[refine], points, midpoints)
         cells = np.concatenate([cells[~refine], children])
-        record.add(evaluate(np.array(points[before:]) @ basis.T))
+        _solve_grid(evaluate, record, points, before)
+
+
+def _solve_grid(
+    evaluate: Callable[[Vector], SupportValues],
+    record: _Evaluations,
+    points: list[Vector],
+    start: int,
+) -> None:
+    """Solve the grid directions from ``start`` on; a direction the support function had to
+    turn (a degenerate optimum) replaces the grid's, so every cell's planes stay valid."""
+    found = evaluate(np.array(points[start:]) @ record.basis.T)
+    solved = found.directions @ record.basis
+    for offset, direction in enumerate(solved):
+        points[start + offset] = direction / np.linalg.norm(direction)
+    record.add(found)
 
 
 def _new_count(k: int, refined: int) -> int:
@@ -222,7 +243,7 @@ def _ascend(
         record.add(found, extra=True)
         new = record.extra[-1]
         gain = float(np.linalg.norm(new[2])) - norm
-        if gain > 0.0:
+        if gain >= -1e-13 * norm:  # keep the state whose load is along its deviation
             best = new
         if gain <= 1e-13 * norm:
             break

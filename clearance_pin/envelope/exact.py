@@ -107,7 +107,9 @@ def exact_extremes(
     axes = np.vstack([np.eye(3), output.axes.T])
     linear_ranges = np.vstack([linear.world, linear.frame])
     ranges = linear_ranges.copy()
-    wanted = [i for i in range(6) if np.all(np.isfinite(linear_ranges[i])) and np.any(linear_ranges[i])]
+    wanted = [
+        i for i in range(6) if np.all(np.isfinite(linear_ranges[i])) and np.any(linear_ranges[i])
+    ]
     if wanted:
         found = support.evaluate(np.vstack([axes[wanted], -axes[wanted]]))
         count = len(wanted)
@@ -116,29 +118,43 @@ def exact_extremes(
             ranges[i] = (float(along @ found.points[count + j]), float(along @ found.points[j]))
     extreme = linear.maximum
     basis = linear.basis
-    direction = extreme.direction
-    state, deviation, largest = extreme.state, np.zeros(3), 0.0
-    if extreme.state is not None and float(np.linalg.norm(direction)) > 0.0:
-        for _ in range(ASCENT_STEPS):
-            found = support.evaluate(direction[None, :])
-            moved = basis @ (basis.T @ found.points[0])
-            norm = float(np.linalg.norm(moved))
-            if norm <= largest:
-                break
-            state, deviation, largest = found.states[0], moved, norm
-            turned = moved / norm
-            if float(turned @ direction) > 1.0 - 1e-14:
-                break
-            direction = turned
+    best: tuple[float, Vector, Vector, Any] = (0.0, np.zeros(3), extreme.direction, extreme.state)
+    if extreme.state is not None and float(np.linalg.norm(extreme.direction)) > 0.0:
+        # the linear envelope is symmetric, the exact one is not: follow both extremes
+        for start in (extreme.direction, -extreme.direction):
+            candidate = _ascent(support, basis, start)
+            if candidate[0] > best[0]:
+                best = candidate
+    largest, deviation, reached, state = best
     return ExactKind(
         kind=kind,
         largest=largest,
         linear_largest=float(extreme.lower),
         deviation=deviation,
-        direction=direction,
+        direction=reached,
         state=state,
         world=ranges[:3],
         frame=ranges[3:],
         linear_world=linear.world,
         linear_frame=linear.frame,
     )
+
+
+def _ascent(
+    support: SupportFunction, basis: Vector, direction: Vector
+) -> tuple[float, Vector, Vector, Any]:
+    """$d \\leftarrow \\delta_{ex}(d) / \\lVert \\delta_{ex}(d) \\rVert$ from ``direction``; returns
+    (largest deviation, deviation (3,), its load direction, its state)."""
+    best: tuple[float, Vector, Vector, Any] = (0.0, np.zeros(3), direction, None)
+    for _ in range(ASCENT_STEPS):
+        found = support.evaluate(direction[None, :])
+        moved = basis @ (basis.T @ found.points[0])
+        norm = float(np.linalg.norm(moved))
+        if norm <= best[0]:
+            break
+        best = (norm, moved, direction, found.states[0])
+        turned = moved / norm
+        if float(turned @ direction) > 1.0 - 1e-14:
+            break
+        direction = turned
+    return best

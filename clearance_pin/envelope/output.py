@@ -20,7 +20,7 @@ from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
-import pinocchio as pin  # type: ignore[import-untyped]
+import pinocchio as pin
 
 from ..errors import ArgumentError, NotFoundError
 

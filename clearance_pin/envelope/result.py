@@ -36,7 +36,8 @@ class Boundary:
         basis: the span $B$ (3, k) whose coordinates ``points`` are given in.
         points: support points (N, k) in span coordinates [m or rad]: k = 1 the two ends, k = 2
             the boundary polygon in order, k = 3 the vertices of a triangulated surface.
-        faces: k = 3: vertex indices (M, 3) of the surface's triangles; else empty.
+        faces: k = 3: vertex indices (M, 3) of the surface's triangles (their convex hull's
+            with scipy installed, else the direction mesh's); else empty.
     """
 
     kind: str
@@ -101,7 +102,9 @@ class Envelope:
     kinds: Mapping[str, KindEnvelope]
     exact: Mapping[str, Any] | None = None
     timings: Mapping[str, float] = field(default_factory=dict)
-    _supports: Mapping[str, SupportFunction] = field(default_factory=dict, repr=False, compare=False)
+    _supports: Mapping[str, SupportFunction] = field(
+        default_factory=dict, repr=False, compare=False
+    )
     _memo: dict[tuple[str, bytes], float] = field(default_factory=dict, repr=False, compare=False)
 
     # -- the two maxima --------------------------------------------------------------------
@@ -162,6 +165,8 @@ class Envelope:
                 unit, faces = grid.icosphere(level)
             found = self._supports[kind].evaluate(unit @ basis.T)
             points = found.points @ basis
+            if k == 3:
+                faces = _hull_faces(points, faces)
         result = Boundary(kind, basis, points, faces)
         cached[key] = result
         return result
@@ -230,7 +235,7 @@ class Envelope:
                 )
                 lines.append(f"  {name} axes: {text} {label}")
         if self.exact is not None:
-            for kind, value in self.exact.items():
+            for value in self.exact.values():
                 lines.extend(value.lines(length, unit))
         return "\n".join(lines)
 
@@ -242,6 +247,21 @@ class Envelope:
                 "kind", f"a kind this envelope was computed for: {', '.join(self.kinds)}", kind
             )
         return self.kinds[kind]
+
+
+def _hull_faces(points: Vector, mesh: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """Triangles of the convex hull of the support points (scipy's Qhull, the ``fast`` extra);
+    the direction mesh's triangles without scipy or for a degenerate set. A polytope-like
+    envelope sends many directions to one vertex, which folds the mesh's triangles; the hull
+    does not."""
+    try:
+        from scipy.spatial import ConvexHull, QhullError
+    except ImportError:
+        return mesh
+    try:
+        return np.asarray(ConvexHull(points).simplices, dtype=np.int64)
+    except (QhullError, ValueError):
+        return mesh
 
 
 def _direction(direction: object) -> Vector:

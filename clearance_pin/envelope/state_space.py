@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import pinocchio as pin  # type: ignore[import-untyped]
+import pinocchio as pin
 
 from .output import Kind, Output
 
@@ -88,7 +88,7 @@ class StateSpace:
         """Orthonormal basis (3, k) of $B$: the directions the play bounds (off $F$)."""
         free = self.free_directions(kind)
         projected = self.output_maps[kind] - free @ (free.T @ self.output_maps[kind])
-        return _range(projected, self._scale(kind))
+        return _aligned(_range(projected, self._scale(kind)))
 
     def _scale(self, kind: Kind) -> float:
         """What a singular value of the output map is compared with: the larger of its own
@@ -110,6 +110,26 @@ def _range(matrix: Matrix, scale: float) -> Matrix:
     u, s, _ = np.linalg.svd(matrix, full_matrices=False)
     keep = s > SPAN_RTOL * scale
     return np.asarray(u[:, keep], dtype=float)
+
+
+def _aligned(basis: Matrix) -> Matrix:
+    """The same span with axes as near the world's as it allows: the world axes projected on
+    it, largest first, orthonormalised (a planar mechanism in the x-y plane gets x and y)."""
+    k = basis.shape[1]
+    if k in (0, 3):
+        return np.eye(3) if k == 3 else basis
+    projector = basis @ basis.T
+    order = np.argsort(-np.linalg.norm(projector, axis=0), kind="stable")
+    out: list[Matrix] = []
+    for i in order:
+        v = projector[:, i].copy()
+        for w in out:
+            v -= (w @ v) * w
+        if np.linalg.norm(v) > 1e-6:
+            out.append(v / np.linalg.norm(v))
+        if len(out) == k:
+            break
+    return np.column_stack(out)
 
 
 def _null_space(rows: Matrix, n: int) -> Matrix:
@@ -156,7 +176,7 @@ def build_state_space(mechanism: Any, configuration: Any, output: Output) -> Sta
     column = {joint.joint_id: 6 * index for index, joint in enumerate(tree)}
     twists = [np.zeros((6, n_z)) for _ in range(model.njoints)]
     equalities: list[Matrix] = []
-    contact_maps: list[tuple[str, Any, Matrix, Matrix | None]] = []
+    contact_maps: list[tuple[str, Any, Matrix, Any]] = []  # offset: pin.SE3 or None
     for joint in tree:
         i = joint.joint_id
         torsor = np.zeros((6, n_z))

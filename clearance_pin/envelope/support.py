@@ -73,6 +73,7 @@ class SupportFunction:
         self.q = q
         self.exact = exact
         self.evaluations = 0
+        self.span: Vector | None = None  # the envelope's span (3, k): where a turn may go
         self._batch_rate = 0.0  # seconds per case of the last batch (0: not tried yet)
         self._run_rate = math.inf  # seconds per case in short runs (inf: not measured yet)
 
@@ -96,6 +97,8 @@ class SupportFunction:
         states: list[Any] = [None] * len(order)
         for position, index in enumerate(order):
             state = solved[position]
+            if isinstance(state, Exception):
+                state, directions[index] = self._retry(directions[index], state)
             if not state.ok:
                 raise SolverError(
                     f"envelope of {self.output.name!r}: the equilibrium under a unit "
@@ -110,12 +113,36 @@ class SupportFunction:
         values = np.einsum("ij,ij->i", directions, points)
         return SupportValues(directions, values, points, tuple(states))
 
+    def _retry(self, direction: Vector, error: Exception) -> tuple[Any, Vector]:
+        """A direction whose equilibrium did not verify in the batch (a degenerate optimum, a
+        face of the envelope normal to it), solved again alone: from the nominal position, then
+        at directions turned by 1e-9, 1e-7 and 1e-5 rad (the support there is a valid support
+        value of the turned direction, which is returned with the state); the first error is
+        raised when every attempt fails."""
+        if not isinstance(error, SolverError):
+            raise error
+        options: dict[str, Any] = {"gravity": False, "exact": self.exact, "q": self.q}
+        across = _across(direction, self.span)
+        angles = (0.0, 1e-9, 1e-7, 1e-5) if across is not None else (0.0,)
+        for angle in angles:
+            turned = (
+                direction
+                if across is None
+                else (math.cos(angle) * direction + math.sin(angle) * across)
+            )
+            try:
+                state = self.mechanism.solve(loads=[self.load(turned)], warm_start=False, **options)
+            except SolverError:
+                continue
+            return state, turned
+        raise error
+
     def _solve(self, cases: list[list[PointForce | Torque]]) -> list[Any]:
         """The equilibria of ``cases`` by :meth:`Mechanism.solve_many`: as one batch (stacked
         Newton over the cases that share a contact set), or in runs shorter than the batch
         minimum (each case warm-started from the previous one) once a batch has cost more per
         case than such runs (a running comparison of the two, per support function)."""
-        options: dict[str, Any] = {"gravity": False, "exact": self.exact}
+        options: dict[str, Any] = {"gravity": False, "exact": self.exact, "errors": "return"}
         batched = len(cases) >= BATCH_MINIMUM and not self.exact and self.q is None
         if batched and self._batch_rate <= 1.5 * self._run_rate:
             start = time.perf_counter()
@@ -131,7 +158,9 @@ class SupportFunction:
                 options["configurations"] = [self.q] * len(chunk)
             items.extend(self.mechanism.solve_many(chunk, **options))
         rate = (time.perf_counter() - start) / len(cases)
-        self._run_rate = rate if not math.isfinite(self._run_rate) else 0.5 * (self._run_rate + rate)
+        self._run_rate = (
+            rate if not math.isfinite(self._run_rate) else 0.5 * (self._run_rate + rate)
+        )
         if batched:  # let the batch try again after a while
             self._batch_rate *= 0.8
         return items
@@ -159,3 +188,18 @@ def _path(directions: Vector) -> list[int]:
         order.append(nxt)
         remaining[nxt] = False
     return order
+
+
+def _across(direction: Vector, span: Vector | None) -> Vector | None:
+    """A unit vector orthogonal to ``direction`` inside ``span`` (3, k) (anywhere when None);
+    None when the span has no such direction (k = 1)."""
+    if span is None:
+        helper = np.eye(3)[int(np.argmin(np.abs(direction)))]
+        across = np.cross(direction, helper)
+    else:
+        inside = span - np.outer(direction, direction @ span)
+        u, s, _ = np.linalg.svd(inside, full_matrices=False)
+        if s.size == 0 or s[0] < 1e-6:
+            return None
+        across = u[:, 0]
+    return np.asarray(across / np.linalg.norm(across), dtype=float)
