@@ -1,6 +1,7 @@
 """The ``clearance-pin`` command.
 
     clearance-pin solve MODEL [--exact] [--json] [--check] [--gravity on|off] [--package-dir DIR]
+    clearance-pin envelope MODEL [--output FRAME] [--plot F] [--json F]   (the clearance envelope)
     clearance-pin tolerance MODEL ...      (see ``clearance-pin tolerance --help``)
 
 The paper's validation cases are a script of the source tree, not a sub-command:
@@ -112,6 +113,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     solve.set_defaults(run=_solve)
     tolerance_command: ModuleType | None
+    from .envelope import command as envelope_command
+
+    envelope_command.register(commands)
     try:
         from .tolerance import command as tolerance_command
     except ImportError:

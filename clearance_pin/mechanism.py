@@ -356,6 +356,15 @@ class Mechanism:
             return linear
         return _exact(self, resolved, q, linear, tol)
 
+    def envelope(self, output, q=None, exact: bool = False, **options):
+        """The clearance envelope of ``output`` (a frame, ``"link@[x y z]"`` or ``(link, point)``):
+        how far it can move inside the play whatever the load, certified (maxima with lower and
+        upper bounds); see :func:`clearance_pin.envelope.envelope` (options: kinds, tol,
+        max_directions, certificate)."""
+        from .envelope import envelope
+
+        return envelope(self, output, q=q, exact=exact, **options)
+
     def solve_many(self, loads=None, configurations=None, **options):
         """Many equilibria, warm-started in sequence; see
         :func:`clearance_pin.equilibrium.batch.solve_many` (options: exact, gravity, tol, backend,

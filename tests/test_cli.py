@@ -308,3 +308,16 @@ def test_installed_entry_point_solves():
     )
     assert done.returncode == 0, done.stderr
     assert "four_bar" in done.stdout and done.stderr == ""
+
+
+def test_envelope_sub_command(tmp_path, capsys):
+    """`clearance-pin envelope MODEL --output FRAME --json F` prints the certified maxima and writes
+    them; the four-bar rocker's pivot frame moves at most its own pin's play, 50 um (closed form:
+    the frame origin is the pivot's centre), and Mechanism.envelope gives the same answer."""
+    written = tmp_path / "envelope.json"
+    status, out, _ = _run(
+        capsys, "envelope", MODELS / "four_bar.urdf", "--output", "rocker", "--json", written
+    )
+    assert status == 0 and "translation" in out and written.stat().st_size > 0
+    envelope = cp.load(MODELS / "four_bar.urdf").envelope("rocker", kinds=("translation",))
+    assert envelope.max_translation.upper == pytest.approx(50e-6, rel=1e-6)
