@@ -1,6 +1,7 @@
 """The ``clearance-pin`` command.
 
-    clearance-pin solve MODEL [--exact] [--json] [--check] [--gravity on|off] [--package-dir DIR]
+    clearance-pin solve MODEL [--exact] [--json] [--check] [--output FRAME] [--plot FILE]
+                        [--gravity on|off] [--package-dir DIR]
     clearance-pin envelope MODEL [--output FRAME] [--plot F] [--json F]   (the clearance envelope)
     clearance-pin tolerance MODEL ...      (see ``clearance-pin tolerance --help``)
 
@@ -77,6 +78,12 @@ def _solve(args: argparse.Namespace) -> int:
                 f"boundaries by up to {largest * 1e6:.3g} um at {where}, the linear model's own "
                 "second-order error, not a failure; --exact reports the exact answer itself)"
             )
+    if args.plot is not None:
+        from .plot import plot_equilibrium
+
+        plot_equilibrium(equilibrium, args.plot)
+        if not args.json:
+            print(f"settled pose drawn in {args.plot}")
     problems = [] if equilibrium.ok else ["residuals out of tolerance"]
     if report is not None and not report.ok:
         problems.append(f"coal check out of tolerance ({len(report.failures)} readings)")
@@ -96,6 +103,13 @@ def build_parser() -> argparse.ArgumentParser:
     solve.add_argument("--json", action="store_true", help="print JSON instead of a table")
     solve.add_argument("--check", action="store_true", help="measure the pose with coal")
     solve.add_argument("--gravity", choices=["on", "off"], help="override the model's gravity")
+    solve.add_argument(
+        "--plot",
+        type=Path,
+        metavar="FILE",
+        help="draw the settled pose (nominal and settled skeleton, magnified; contacts and their "
+        "forces; the plays to scale) into FILE (PNG, PDF, SVG; needs the plot extra)",
+    )
     solve.add_argument(
         "--output",
         action="append",

@@ -321,3 +321,12 @@ def test_envelope_sub_command(tmp_path, capsys):
     assert status == 0 and "translation" in out and written.stat().st_size > 0
     envelope = cp.load(MODELS / "four_bar.urdf").envelope("rocker", kinds=("translation",))
     assert envelope.max_translation.upper == pytest.approx(50e-6, rel=1e-6)
+
+
+def test_solve_plot_draws_the_settled_pose(tmp_path, capsys):
+    """`solve MODEL --plot FILE.png` writes the settled-pose picture (the plot extra)."""
+    pytest.importorskip("matplotlib")
+    picture = tmp_path / "four_bar.png"
+    status, out, _ = _run(capsys, "solve", MODELS / "four_bar.urdf", "--plot", picture)
+    assert status == 0 and f"drawn in {picture}" in out
+    assert picture.stat().st_size > 10_000
