@@ -29,7 +29,7 @@ from .errors import (
     SuspectValueWarning,
     UnboundedLoadError,
 )
-from .loading import load, loads
+from .loading import from_model, load, loads
 from .mechanism import Mechanism
 from .model.loads import Gravity, PointForce, Torque
 
@@ -41,6 +41,7 @@ __version__ = "0.1.0"
 __all__ = [
     "load",
     "loads",
+    "from_model",
     "Mechanism",
     "Equilibrium",
     "EquilibriumBatch",

@@ -61,7 +61,7 @@ import pinocchio as pin
 
 from ..errors import ArgumentError, ModelError
 from .iso286 import ToleranceInputError, tolerance_m
-from .xml_values import number, vector
+from .xml_values import label_of, number, vector
 
 __all__ = ["Dimension", "parse_dimensions"]
 
@@ -136,13 +136,17 @@ class Dimension:
         return pin.SE3(rotation, point - rotation @ point)
 
 
-def parse_dimensions(source: str, block: ET.Element, model: pin.Model) -> tuple[Dimension, ...]:
+def parse_dimensions(
+    source: str, block: ET.Element, model: pin.Model, exponent: int = 0
+) -> tuple[Dimension, ...]:
     """Read the ``<dimension>`` elements of a ``<clearance_pin>`` block.
 
     Args:
         source: file name for error messages.
         block: the ``<clearance_pin>`` element.
         model: the Pinocchio model built from the same URDF.
+        exponent: power of ten of the block's length unit (-3 for ``unit="mm"``): the
+            tolerances of lengths are converted to metres; those of angles stay in radians.
 
     Returns:
         The dimensions, in file order.
@@ -153,7 +157,7 @@ def parse_dimensions(source: str, block: ET.Element, model: pin.Model) -> tuple[
     dimensions: list[Dimension] = []
     names: set[str] = set()
     for element in block.findall("dimension"):
-        dimension = _parse_one(source, element, model)
+        dimension = _parse_one(source, element, model, exponent)
         if dimension.name in names:
             raise ModelError(source, _label(element), "duplicate dimension name")
         names.add(dimension.name)
@@ -162,11 +166,14 @@ def parse_dimensions(source: str, block: ET.Element, model: pin.Model) -> tuple[
 
 
 def _label(element: ET.Element) -> str:
+    custom = label_of(element)
+    if custom:
+        return custom
     name = element.get("name")
     return f"<dimension name='{name}'>" if name else "<dimension>"
 
 
-def _parse_one(source: str, element: ET.Element, model: pin.Model) -> Dimension:
+def _parse_one(source: str, element: ET.Element, model: pin.Model, exponent: int) -> Dimension:
     label = _label(element)
     unknown = sorted(set(element.attrib) - ATTRIBUTES)
     if unknown:
@@ -229,8 +236,9 @@ def _parse_one(source: str, element: ET.Element, model: pin.Model) -> Dimension:
                 f"{exc.problem}",
             ) from None
     else:
-        unit = "m" if kind == "length" else "rad"
-        value = number(source, label, element, given[0], nonnegative=True, unit=unit)
+        scale = exponent if kind == "length" else 0
+        unit = {0: "m", -3: "mm", -6: "um"}.get(scale, "m") if kind == "length" else "rad"
+        value = number(source, label, element, given[0], True, unit, scale)
         tolerance = value if given[0] == "tolerance" else 2.0 * value
     return Dimension(
         name,
