@@ -1,7 +1,7 @@
 """The ``clearance-pin`` command.
 
-    clearance-pin solve MODEL [--exact] [--json] [--check] [--output FRAME] [--plot FILE]
-                        [--gravity on|off] [--package-dir DIR]
+    clearance-pin solve MODEL [--clearances FILE] [--exact] [--json] [--check] [--output FRAME]
+                        [--plot FILE] [--gravity on|off] [--package-dir DIR]
     clearance-pin envelope MODEL [--output FRAME] [--plot F] [--json F]   (the clearance envelope)
     clearance-pin tolerance MODEL ...      (see ``clearance-pin tolerance --help``)
 
@@ -118,6 +118,13 @@ def build_parser() -> argparse.ArgumentParser:
         "loaded points and the leaf links)",
     )
     solve.add_argument(
+        "--clearances",
+        type=Path,
+        metavar="FILE",
+        help="the clearances of an unmodified URDF or MJCF file: a <clearance_pin> XML file or "
+        "its TOML form (docs/model-format.md)",
+    )
+    solve.add_argument(
         "--package-dir",
         action="append",
         type=Path,
@@ -143,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _model_options(args: argparse.Namespace) -> dict[str, Any]:
     """Keyword arguments of :func:`clearance_pin.load` from the command line."""
-    return {"package_dirs": args.package_dir}
+    return {"package_dirs": args.package_dir, "clearances": args.clearances}
 
 
 def _one_line_warnings(

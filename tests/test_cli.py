@@ -330,3 +330,21 @@ def test_solve_plot_draws_the_settled_pose(tmp_path, capsys):
     status, out, _ = _run(capsys, "solve", MODELS / "four_bar.urdf", "--plot", picture)
     assert status == 0 and f"drawn in {picture}" in out
     assert picture.stat().st_size > 10_000
+
+
+def test_clearances_beside_an_unmodified_urdf(tmp_path, capsys):
+    """`solve URDF --clearances FILE`: the four-bar's block moved to a file of its own beside the
+    URDF without it gives the same table as the file with its block (self-consistency)."""
+    text = (MODELS / "four_bar.urdf").read_text()
+    start, end = text.index("<clearance_pin>"), text.index("</clearance_pin>")
+    (tmp_path / "four_bar.urdf").write_text(text[:start] + text[end + len("</clearance_pin>") :])
+    (tmp_path / "play.xml").write_text(text[start : end + len("</clearance_pin>")])
+    _, with_block, _ = _run(capsys, "solve", MODELS / "four_bar.urdf", "--json")
+    status, beside, _ = _run(
+        capsys, "solve", tmp_path / "four_bar.urdf", "--clearances", tmp_path / "play.xml", "--json"
+    )
+    assert status == 0
+    assert (
+        json.loads(beside)["equilibrium"]["torsors"]
+        == json.loads(with_block)["equilibrium"]["torsors"]
+    )
