@@ -12,7 +12,8 @@ $(BIN)/clearance-pin: pyproject.toml
 	touch $@
 
 demo: $(BIN)/clearance-pin
-	$(BIN)/clearance-pin solve models/younes_sphere_cylinder.urdf --exact
+	mkdir -p out
+	$(BIN)/clearance-pin solve models/arm_6r.urdf --exact --output tool --plot out/demo.png
 
 # lint and types first (seconds), then the suite with one BLAS thread: the solver's matrices are
 # small, and threads fight on a busy machine.
