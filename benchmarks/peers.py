@@ -25,6 +25,13 @@ Peers (one function or class each, the same signature: a load in, a :class:`Peer
 - :func:`solve_cvxpy`: CVXPY with the Clarabel solver, the problem re-built for every load.
 - :class:`CvxpyParametric`: CVXPY built once with the load as ``cp.Parameter`` (DPP re-use).
 - :func:`solve_clarabel`: Clarabel called directly, the second-order-cone data built per solve.
+- :class:`ClarabelPrebuilt`: the peer an expert writes: Clarabel built once per shaft (data,
+  cones, symbolic factorisation) and re-solved for each new load after ``solver.update(q=...)``,
+  at Clarabel's default settings or at tight tolerances.
+
+For the arms, whose problem is not a shaft, :class:`ReducedClarabel` is the same prebuilt peer on
+the reduced cone programme clearance_pin itself solves (read through
+``clearance_pin.equilibrium.prepared``), so that both solve the same numbers.
 
 Source: M. Younes, P. Dal Santo, A. Potiron, "Three-dimensional study for the relative
 positioning of mechanical elements in mechanisms constituted by parallel joints with clearances",
@@ -288,6 +295,32 @@ def _value(variable) -> np.ndarray:
 
 
 # -- Clarabel directly -------------------------------------------------------------------------
+def _clarabel_solver_settings(tol: float | None):
+    """Clarabel settings: its defaults (``tol=None``) or :func:`clarabel_settings` ``(tol)``."""
+    import clarabel
+
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    if tol is not None:
+        for name, value in clarabel_settings(tol).items():
+            setattr(settings, name, value)
+    return settings
+
+
+def _shaft_cone_data(shaft: Shaft):
+    """(A, b, cones) of the shaft problem: zero cone for the equalities, one SOC per set."""
+    import clarabel
+
+    equalities = np.vstack([shaft.transport_rows(), shaft.gauge_rows()])
+    blocks, b = [equalities], [np.zeros(equalities.shape[0])]
+    cones = [clarabel.ZeroConeT(equalities.shape[0])]
+    for radius, rows in shaft.cones():
+        blocks.append(np.vstack([np.zeros((1, 12)), -rows]))
+        b.append(np.concatenate([[radius], np.zeros(rows.shape[0])]))
+        cones.append(clarabel.SecondOrderConeT(rows.shape[0] + 1))
+    return np.vstack(blocks), np.concatenate(b), cones
+
+
 def solve_clarabel(shaft: Shaft, force, torque, tol: float = 1e-10) -> PeerSolution:
     r"""Clarabel on :math:`\min q^T x` s.t. :math:`A x + s = b`, s in {0}^m x SOC x ... (built now).
 
@@ -298,24 +331,14 @@ def solve_clarabel(shaft: Shaft, force, torque, tol: float = 1e-10) -> PeerSolut
     import clarabel
     from scipy import sparse
 
-    equalities = np.vstack([shaft.transport_rows(), shaft.gauge_rows()])
-    blocks, b = [equalities], [np.zeros(equalities.shape[0])]
-    cones = [clarabel.ZeroConeT(equalities.shape[0])]
-    for radius, rows in shaft.cones():
-        blocks.append(np.vstack([np.zeros((1, 12)), -rows]))
-        b.append(np.concatenate([[radius], np.zeros(rows.shape[0])]))
-        cones.append(clarabel.SecondOrderConeT(rows.shape[0] + 1))
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    for name, value in clarabel_settings(tol).items():
-        setattr(settings, name, value)
+    matrix, b, cones = _shaft_cone_data(shaft)
     solver = clarabel.DefaultSolver(
         sparse.csc_matrix((12, 12)),
         shaft.objective(force, torque),
-        sparse.csc_matrix(np.vstack(blocks)),
-        np.concatenate(b),
+        sparse.csc_matrix(matrix),
+        b,
         cones,
-        settings,
+        _clarabel_solver_settings(tol),
     )
     result = solver.solve()
     status = str(result.status)
@@ -327,11 +350,136 @@ def solve_clarabel(shaft: Shaft, force, torque, tol: float = 1e-10) -> PeerSolut
     )
 
 
+class ClarabelPrebuilt:
+    """Clarabel built once for a shaft, re-solved per load with ``solver.update(q=...)``.
+
+    The constraint data (A, b, cones) of :func:`solve_clarabel` do not depend on the load; only the
+    linear cost q does. The solver is built once with the cost of ``load`` (the case's own load:
+    Clarabel's equilibration reads the data it is built with) and each :meth:`solve` updates q
+    and solves, re-using the data, the equilibration and the symbolic factorisation.
+
+    Args:
+        shaft: the case.
+        load: (F [N], C [N mm]) the solver is built with.
+        tol: None for Clarabel's default settings (gap 1e-8, feasibility 1e-8, KKT ratio 1e-6),
+            else every tolerance set to ``tol`` (:func:`clarabel_settings`).
+    """
+
+    def __init__(self, shaft: Shaft, load, tol: float | None = None):
+        import clarabel
+        from scipy import sparse
+
+        self.shaft = shaft
+        matrix, b, cones = _shaft_cone_data(shaft)
+        self.solver = clarabel.DefaultSolver(
+            sparse.csc_matrix((12, 12)),
+            shaft.objective(*load),
+            sparse.csc_matrix(matrix),
+            b,
+            cones,
+            _clarabel_solver_settings(tol),
+        )
+        if not self.solver.is_data_update_allowed():
+            raise RuntimeError("Clarabel refuses data updates for the shaft problem")
+
+    def solve(self, force, torque) -> PeerSolution:
+        self.solver.update(q=self.shaft.objective(force, torque))
+        result = self.solver.solve()
+        status = str(result.status)
+        return _split(
+            np.asarray(result.x),
+            f"clarabel: {status}",
+            result.iterations,
+            status in ("Solved", "AlmostSolved"),
+        )
+
+
+class ReducedClarabel:
+    r"""Clarabel prebuilt on clearance_pin's reduced cone programme, updated per load.
+
+    The reduced problem (``clearance_pin.equilibrium.prepared.prepared_geometry(mechanism, q)
+    .problem(loads)``) is :math:`\min f^T y` s.t. :math:`\|P_j y + o_j\| \le 1` (ball, disc: a
+    second-order cone on :math:`(1, P_j y + o_j)`) or :math:`|p_j^T y + o_j| \le 1` (slab: two
+    non-negative rows). Its constraint data are those of ``problem.stack`` (``matrix``,
+    ``offset``, ``starts``, ``is_norm``); they are the same for every load, and for a mechanism
+    without loops for every configuration too. The solver is built on the first problem and each
+    :meth:`solve` updates the cost (and rebuilds only when the constraint data change, counted in
+    ``rebuilds``).
+
+    Args:
+        tol: None for Clarabel's default settings, else every tolerance set to ``tol``.
+    """
+
+    def __init__(self, tol: float | None = None):
+        self.tol = tol
+        self.solver = None
+        self._stack = None
+        self._matrix = None
+        self._offset = None
+        self.rebuilds = 0
+
+    @staticmethod
+    def cone_data(stack):
+        """(A, b, cones) of a reduced problem's stacked contacts."""
+        import clarabel
+
+        blocks, b, cones = [], [], []
+        rows = stack.matrix.shape[0]
+        ends = [*stack.starts[1:], rows]
+        for start, end, is_norm in zip(stack.starts, ends, stack.is_norm):
+            matrix, offset = stack.matrix[start:end], stack.offset[start:end]
+            if is_norm:
+                blocks.append(np.vstack([np.zeros((1, stack.size)), -matrix]))
+                b.extend([1.0, *offset])
+                cones.append(clarabel.SecondOrderConeT(end - start + 1))
+            else:
+                blocks.append(np.vstack([matrix, -matrix]))
+                b.extend([1.0 - offset[0], 1.0 + offset[0]])
+                cones.append(clarabel.NonnegativeConeT(2))
+        return np.vstack(blocks), np.array(b), cones
+
+    def solve(self, problem) -> tuple[np.ndarray, str, bool]:
+        """(y, status, success) of one reduced problem."""
+        import clarabel
+        from scipy import sparse
+
+        stack = problem.stack
+        same = self.solver is not None and (
+            stack is self._stack
+            or (
+                self._matrix.shape == stack.matrix.shape
+                and np.array_equal(self._matrix, stack.matrix)
+                and np.array_equal(self._offset, stack.offset)
+            )
+        )
+        if not same:
+            matrix, b, cones = self.cone_data(stack)
+            self.solver = clarabel.DefaultSolver(
+                sparse.csc_matrix((problem.size, problem.size)),
+                problem.objective,
+                sparse.csc_matrix(matrix),
+                b,
+                cones,
+                _clarabel_solver_settings(self.tol),
+            )
+            self._stack, self._matrix, self._offset = stack, stack.matrix, stack.offset
+            self.rebuilds += 1
+        else:
+            self.solver.update(q=problem.objective)
+        result = self.solver.solve()
+        status = str(result.status)
+        return np.asarray(result.x), f"clarabel: {status}", status in ("Solved", "AlmostSolved")
+
+
 PEERS = {
     "scipy_slsqp": "scipy.optimize.minimize(method='SLSQP'), analytic gradients, from x = 0",
     "cvxpy_clarabel": "CVXPY + Clarabel, the problem re-built for every load",
     "cvxpy_clarabel_param": "CVXPY + Clarabel, built once, load as cp.Parameter (DPP)",
     "clarabel_direct": "Clarabel called directly, SOC data built per solve",
+    "clarabel_prebuilt": "Clarabel built once per case, solver.update(q=...) per load, "
+    "tolerances swept (headline 1e-12)",
+    "clarabel_prebuilt_default": "Clarabel built once per case, solver.update(q=...) per load, "
+    "Clarabel's default settings",
 }
 
 __all__ = [
@@ -342,6 +490,8 @@ __all__ = [
     "solve_cvxpy",
     "CvxpyParametric",
     "solve_clarabel",
+    "ClarabelPrebuilt",
+    "ReducedClarabel",
     "clarabel_settings",
     "skew",
     "PEERS",

@@ -17,10 +17,17 @@ tol 1e-12, cold start, KKT-polished), cross-checked against Clarabel called dire
 (paper shafts) or against our IPOPT backend (other models); for the exact model, our exact solve
 at the tightest tolerance that IPOPT accepts (1e-14, else 1e-13, 1e-12).
 
+Also, in the same run: the floor of the paper cases (:mod:`floor`: the Newton solve of the known
+active set's KKT system alone), and the arms (:mod:`arms`: the 6R arm, the UR5 and the Panda,
+1000-point trajectories and 1e4 to 1e5 tool-load cases against prebuilt Clarabel on the same
+reduced problem and a loop of ``Mechanism.solve``, checked against closed forms).
+
 Usage:
     python benchmarks/work_precision.py [--json FILE] [--plots DIR] [--quick] [--cases ID ...]
+        [--arms [NAME ...]] [--no-arms] [--arm-points N] [--arm-loads N ...] [--no-floor]
 
-JSON: {"cases": {id: {method: {"median_s", "error_mm", "peer", ...extra keys}}}, "ratios": ...}.
+JSON: {"cases": {id: {method: {"median_s", "error_mm", "peer", ...extra keys}}}, "ratios": ...,
+"ratio_ranges": ..., "floor": ..., "arms": ...}.
 """
 
 from __future__ import annotations
@@ -55,6 +62,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 
+import arms
+import floor
 import peers
 
 import clearance_pin
@@ -97,13 +106,24 @@ class RunSettings:
         perturbation: relative size of the random load perturbation (0.3: about 17 degrees).
         seed: seed of the load perturbations.
         sweep: tolerance settings swept per method family.
-        trajectory_points: points of the 6R arm trajectory (solve_many over configurations).
+        arm_points: points of each arm's trajectory (solve_many over configurations).
+        arm_loads: sizes of the arms' tool-load runs: the smallest always runs, a larger one when
+            the previous size's time per case predicts it within ``arm_budget_s``.
+        arm_budget_s: repeats of an arm run (at most ``arm_repeats``) stop once this is spent [s].
+        arm_loop_budget_s: the loops of solve and of prebuilt Clarabel over the tool-load cases
+            stop after this [s] (the first cases of the run).
+        floor_rows: loads of the vectorised floor run (floor.py).
     """
 
     loads: int = 200
     budget_s: float = 2.0
     min_solves: int = 20
-    trajectory_points: int = 1000
+    arm_points: int = 1000
+    arm_loads: tuple = (10_000, 100_000)
+    arm_budget_s: float = 15.0
+    arm_repeats: int = 3
+    arm_loop_budget_s: float = 3.0
+    floor_rows: int = 10_000
     exact_loads: int = 60
     batch_repeats: int = 5
     perturbation: float = 0.3
@@ -113,20 +133,32 @@ class RunSettings:
             "tol": (1e-4, 1e-6, 1e-8, 1e-10, 1e-12),
             "exact_tol": (1e-6, 1e-8, 1e-10, 1e-12),
             "ftol": (1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-14),
+            # the two slowest methods (IPOPT backend, cvxpy re-built per load): fewer settings
+            "slow_tol": (1e-8, 1e-12),
         }
     )
 
 
 QUICK = RunSettings(
-    trajectory_points=200,
+    arm_points=100,
+    arm_loads=(500, 2000),
+    arm_budget_s=3.0,
+    arm_repeats=1,
+    arm_loop_budget_s=0.5,
+    floor_rows=1000,
     loads=20,
     budget_s=0.3,
     min_solves=5,
     exact_loads=8,
     batch_repeats=2,
-    sweep={"tol": (1e-6, 1e-12), "exact_tol": (1e-8, 1e-12), "ftol": (1e-6, 1e-12)},
+    sweep={
+        "tol": (1e-6, 1e-12),
+        "exact_tol": (1e-8, 1e-12),
+        "ftol": (1e-6, 1e-12),
+        "slow_tol": (1e-12,),
+    },
 )
-HEADLINE = {"tol": 1e-12, "exact_tol": 1e-12, "ftol": 1e-12}
+HEADLINE = {"tol": 1e-12, "exact_tol": 1e-12, "ftol": 1e-12, "clarabel": "default"}
 
 
 # -- cases ---------------------------------------------------------------------------------------
@@ -543,6 +575,7 @@ def run_case(case: Case, settings: RunSettings, tolerances: Tolerances, log) -> 
     order = list(range(n))
     extract = _ours_extract(case)
     results: dict[str, dict] = {}
+    scales = play_scales(mechanism)
 
     def record(name: str, runs: list[Run], headline: dict, peer: bool, description: str):
         sweep = [r.summary() for r in runs]
@@ -554,18 +587,23 @@ def run_case(case: Case, settings: RunSettings, tolerances: Tolerances, log) -> 
                 "description": description,
                 "sweep": sweep,
                 "matched": matched(sweep, tolerances),
+                "error_rel_play": relative_to_play(head, scales),
             }
         )
         results[name] = entry
         log(
-            f"  {name:<24} {entry['median_s'] * 1e3:9.3f} ms  error {entry['error_mm']:.2e}  "
-            f"({entry['solves']} solves, {entry['failures']} failed)"
+            f"  {name:<24} {entry['median_s'] * 1e3:9.3f} ms  error {entry['error_mm']:.2e} "
+            f"({entry['error_rel_play']:.0e} of the play)  ({entry['solves']} solves, "
+            f"{entry['failures']} failed)"
         )
 
     # ours, cold: Clarabel (auto) and IPOPT backends
-    for name, backend in (("clearance_pin_default", "auto"), ("clearance_pin_ipopt", "ipopt")):
+    for name, backend, sweep_key in (
+        ("clearance_pin_default", "auto", "tol"),
+        ("clearance_pin_ipopt", "ipopt", "slow_tol"),
+    ):
         runs = []
-        for tol in settings.sweep["tol"]:
+        for tol in settings.sweep[sweep_key]:
 
             def call(i, tol=tol, backend=backend):
                 return mechanism.solve(
@@ -644,9 +682,11 @@ def run_case(case: Case, settings: RunSettings, tolerances: Tolerances, log) -> 
     # ours, batch: solve_many over all perturbed loads, in a new random order each repeat
     results["clearance_pin_batch"] = batch_run(case, refs, settings, tolerances)
     entry = results["clearance_pin_batch"]
+    entry["error_rel_play"] = relative_to_play(entry, scales)
     log(
         f"  {'clearance_pin_batch':<24} {entry['median_s'] * 1e3:9.3f} ms  error "
-        f"{entry['error_mm']:.2e}  ({entry['cases_per_s']:.0f} cases/s)"
+        f"{entry['error_mm']:.2e} ({entry['error_rel_play']:.0e} of the play)  "
+        f"({entry['cases_per_s']:.0f} cases/s)"
     )
 
     if case.shaft is None:
@@ -682,7 +722,7 @@ def run_case(case: Case, settings: RunSettings, tolerances: Tolerances, log) -> 
         "cvxpy_clarabel",
         lambda tol: lambda f, c: peers.solve_cvxpy(shaft, f, c, tol),
         "tol",
-        settings.sweep["tol"],
+        settings.sweep["slow_tol"],
     )
     peer_runs(
         "cvxpy_clarabel_param",
@@ -696,7 +736,99 @@ def run_case(case: Case, settings: RunSettings, tolerances: Tolerances, log) -> 
         "tol",
         settings.sweep["tol"],
     )
+    # the expert's peer: built once per setting (with the case's own load), updated per load
+    peer_runs(
+        "clarabel_prebuilt",
+        lambda tol: peers.ClarabelPrebuilt(shaft, nominal_peer, tol).solve,
+        "tol",
+        settings.sweep["tol"],
+    )
+    peer_runs(
+        "clarabel_prebuilt_default",
+        lambda _: peers.ClarabelPrebuilt(shaft, nominal_peer, None).solve,
+        "clarabel",
+        ("default",),
+    )
+    if settings.floor_rows:
+        results_floor = floor_run(case, refs, settings)
+        if results_floor.get("measured"):
+            results_floor["error_rel_play"] = relative_to_play(results_floor, scales)
+        refs["summary"]["floor"] = results_floor
+        log(describe_floor(results_floor))
     return results, refs["summary"]
+
+
+def play_scales(mechanism) -> tuple[float, float]:
+    """(largest clearance c [mm], length scale l [mm]) of a mechanism: errors relative to the play
+    are max(translation / c, rotation * l / c), the library's scaling of its unknowns."""
+    play = max(c.bound for j in mechanism.joints.values() for c in j.clearance.contacts)
+    return MM * play, MM * mechanism.length_scale()
+
+
+def relative_to_play(entry: dict, scales: tuple[float, float]) -> float:
+    """An entry's worst error relative to the play (its perturbed loads; NaN when missing)."""
+    play, length = scales
+    translation = entry.get("error_translation_mm", math.nan)
+    rotation = entry.get("error_rotation_rad", math.nan)
+    values = [v for v in (translation / play, rotation * length / play) if math.isfinite(v)]
+    return max(values) if values else math.nan
+
+
+def floor_run(case: Case, refs: dict, settings: RunSettings) -> dict:
+    """The floor of a paper case (:mod:`floor`), and the parts of a solve around it: the library's
+    load -> reduced problem, and Clarabel prebuilt on that reduced problem."""
+    from clearance_pin.equilibrium.prepared import prepared_geometry
+
+    mechanism = case.mechanism
+    prepared = prepared_geometry(mechanism)
+    columns = [prepared.joint_names.index(j) for j in case.joints]
+    problems, reduction_times = [], []
+    for loads in case.perturbed:
+        resolved = mechanism.resolve_loads(loads)
+        started = time.perf_counter()
+        problems.append(prepared.problem(resolved))
+        reduction_times.append(time.perf_counter() - started)
+    nominal = prepared.problem(mechanism.resolve_loads(case.nominal))
+
+    def vector_of(x):
+        torsors = prepared.torsor_array(x)
+        return np.concatenate([paper_units(torsors[c]) for c in columns])
+
+    out = floor.floor_case(
+        prepared,
+        problems,
+        nominal,
+        vector_of,
+        refs["linear"],
+        peers.ReducedClarabel(1e-10),
+        error_of,
+        rows=settings.floor_rows,
+    )
+    reduced = peers.ReducedClarabel(1e-12)
+    reduced.solve(nominal)  # built once
+    times, errors = [], []
+    for problem, reference in zip(problems, refs["linear"]):
+        started = time.perf_counter()
+        y, _, _ = reduced.solve(problem)
+        times.append(time.perf_counter() - started)
+        errors.append(error_of(vector_of(problem.x_from_y(y)), reference)[0])
+    out["reduction_s"] = float(np.median(reduction_times))
+    out["clarabel_reduced_s"] = float(np.median(times))
+    out["clarabel_reduced_error_mm"] = _nanmax(errors)
+    return out
+
+
+def describe_floor(entry: dict) -> str:
+    if not entry.get("measured"):
+        return f"  {'floor':<24} not measured: {entry.get('note', '')}"
+    return (
+        f"  {'floor':<24} Newton alone {entry['single_s'] * 1e3:.3f} ms, vectorised "
+        f"{entry['vectorised_per_load_s'] * 1e6:.1f} us per load, one dgesv "
+        f"{entry['lapack_call_s'] * 1e6:.1f} us (error {entry['error_mm']:.1e}, "
+        f"{entry['loads_on_known_set']}/{entry['loads']} loads on the known set); reduction "
+        f"{entry['reduction_s'] * 1e3:.3f} ms, Clarabel on it "
+        f"{entry['clarabel_reduced_s'] * 1e3:.3f} ms"
+    )
 
 
 def batch_run(case: Case, refs: dict, settings: RunSettings, tolerances: Tolerances) -> dict:
@@ -806,6 +938,181 @@ def ratios(cases: dict) -> dict:
     return out
 
 
+OUR_PATHS = {
+    "clearance_pin_resolve": "re-solve (new load)",
+    "clearance_pin_default": "cold solve, built mechanism",
+    "clearance_pin_batch": "batch (`solve_many`)",
+    "clearance_pin_exact": "exact model (from the linear answer)",
+    "clearance_pin_ipopt": "IPOPT backend",
+}
+PEER_COLUMNS = (
+    ("clarabel_prebuilt_default", "Clarabel prebuilt (default tol)"),
+    ("clarabel_prebuilt", "Clarabel prebuilt (tol 1e-12)"),
+    ("clarabel_direct", "Clarabel re-built"),
+    ("cvxpy_clarabel_param", "cvxpy (parameters)"),
+    ("cvxpy_clarabel", "cvxpy re-built"),
+    ("scipy_slsqp", "scipy SLSQP"),
+)
+
+
+def _range(values) -> dict | None:
+    values = [v for v in values if v is not None and math.isfinite(v)]
+    if not values:
+        return None
+    return {"min": min(values), "median": float(np.median(values)), "max": max(values)}
+
+
+def ratio_ranges(case_ratios: dict, cases: dict, floors: dict) -> dict:
+    """Over the paper cases, per path of ours: the range (min, median, max) of each peer's time
+    ratio peer / ours (wall and CPU), of ours / floor (single Newton, vectorised), and the
+    issue-12 targets with their worst measured value."""
+    out: dict = {"peers": {}, "floor": {}, "targets": {}}
+    for mine in OUR_PATHS:
+        rows = [table[mine] for table in case_ratios.values() if mine in table]
+        if not rows:
+            continue
+        out["peers"][mine] = {
+            peer: {
+                "wall": _range(row[peer]["time_ratio"] for row in rows if peer in row),
+                "cpu": _range(row[peer]["cpu_time_ratio"] for row in rows if peer in row),
+            }
+            for peer, _ in PEER_COLUMNS
+        }
+        measured = [(c, f) for c, f in floors.items() if f.get("measured") and mine in cases[c]]
+        out["floor"][mine] = {
+            "over_single_newton": _range(
+                cases[c][mine]["median_s"] / f["single_s"] for c, f in measured
+            ),
+            "over_vectorised": _range(
+                cases[c][mine]["median_s"] / f["vectorised_per_load_s"] for c, f in measured
+            ),
+        }
+
+    def worst(mine, peer, scale=1.0):
+        entry = out["peers"].get(mine, {}).get(peer, {}).get("wall")
+        return None if entry is None else entry["min"] * scale
+
+    for peer in ("clarabel_prebuilt_default", "clarabel_prebuilt"):
+        out["targets"][peer] = {
+            "re-solve at most 0.5x prebuilt Clarabel (ratio >= 2)": _target(
+                worst("clearance_pin_resolve", peer), 2.0
+            ),
+            "cold solve no slower than prebuilt Clarabel (ratio >= 1)": _target(
+                worst("clearance_pin_default", peer), 1.0
+            ),
+            "solve_many at least 10x prebuilt Clarabel's rate (ratio >= 10)": _target(
+                worst("clearance_pin_batch", peer), 10.0
+            ),
+        }
+    out["targets"]["scipy_slsqp"] = {
+        "re-solve at least 20x faster than SLSQP (ratio >= 20)": _target(
+            worst("clearance_pin_resolve", "scipy_slsqp"), 20.0
+        )
+    }
+    return out
+
+
+def _target(value, required: float) -> dict:
+    return {"worst": value, "required": required, "met": value is not None and value >= required}
+
+
+def _span(entry) -> str:
+    if not entry:
+        return "-"
+    low, high = entry["min"], entry["max"]
+    digits = 2 if high < 10 else 1 if high < 100 else 0
+    return f"{low:.{digits}f}-{high:.{digits}f}"
+
+
+def print_markdown(ranges: dict, cases: dict, floors: dict, arm_results: dict) -> None:
+    """The tables of benchmarks/README.md, in Markdown."""
+    if ranges["peers"]:
+        print(
+            "\nRatios peer / ours over the paper cases (wall time, > 1: ours faster), "
+            "and ours / floor"
+        )
+        header = [label for _, label in PEER_COLUMNS] + [
+            "ours / floor: Newton alone",
+            "ours / floor: vectorised Newton",
+        ]
+        print("\n| ours | " + " | ".join(header) + " |")
+        print("|---" * (len(header) + 1) + "|")
+        for mine, label in OUR_PATHS.items():
+            if mine not in ranges["peers"]:
+                continue
+            cells = [_span(ranges["peers"][mine][peer]["wall"]) for peer, _ in PEER_COLUMNS]
+            cells.append(_span(ranges["floor"][mine]["over_single_newton"]))
+            cells.append(_span(ranges["floor"][mine]["over_vectorised"]))
+            print(f"| {label} | " + " | ".join(cells) + " |")
+        print("\nIssue 12 targets (worst case over the paper cases):\n")
+        for peer, targets in ranges["targets"].items():
+            for text, t in targets.items():
+                value = "n/a" if t["worst"] is None else f"{t['worst']:.2f}"
+                print(f"- vs {peer}: {text}: {value} ({'met' if t['met'] else 'not met'})")
+    paper = [c for c in cases if c in floors]
+    if paper:
+        print(
+            "\n| case | re-solve | cold | batch | Clarabel prebuilt default / 1e-12 | SLSQP | "
+            "reduction | Clarabel on it | Newton alone | vectorised Newton | worst error of ours "
+            "[of the play] | prebuilt 1e-12 error |"
+        )
+        print("|---" * 12 + "|")
+        for case_id in paper:
+            m, f = cases[case_id], floors[case_id]
+
+            def ms(name, m=m):
+                return f"{m[name]['median_s'] * 1e3:.3f}" if name in m else "-"
+
+            ours = [m[k].get("error_rel_play", math.nan) for k in OUR_PATHS if k in m]
+            single = f"{f['single_s'] * 1e3:.3f}" if f.get("measured") else "-"
+            vector = f"{f['vectorised_per_load_s'] * 1e6:.1f} us" if f.get("measured") else "-"
+            print(
+                f"| {case_id} | {ms('clearance_pin_resolve')} | {ms('clearance_pin_default')} | "
+                f"{ms('clearance_pin_batch')} | {ms('clarabel_prebuilt_default')} / "
+                f"{ms('clarabel_prebuilt')} | {ms('scipy_slsqp')} | "
+                f"{f.get('reduction_s', math.nan) * 1e3:.3f} | "
+                f"{f.get('clarabel_reduced_s', math.nan) * 1e3:.3f} | {single} | {vector} | "
+                f"{_nanmax(ours):.0e} | "
+                f"{m['clarabel_prebuilt'].get('error_rel_play', math.nan):.0e} |"
+            )
+    arm_rows = {k: v for k, v in arm_results.items() if "trajectory" in v}
+    if arm_rows:
+        print(
+            "\n| arm | trajectory: solve_many [s] | loop of solve [s] | prebuilt Clarabel [s] "
+            "(reduction + Clarabel) | error solve_many / loop / prebuilt [of the play] |"
+        )
+        print("|---" * 5 + "|")
+        for name, entry in arm_rows.items():
+            t = entry["trajectory"]
+            peer = t["clarabel_prebuilt"]
+            print(
+                f"| {name} | {t['solve_many']['wall_s']:.3f} ({t['points']} points) | "
+                f"{t['solve_loop']['wall_s']:.3f} | {peer['wall_s']:.3f} "
+                f"({peer['reduction_median_s'] * 1e3:.2f} + {peer['clarabel_median_s'] * 1e3:.2f}"
+                f" ms per point) | {t['solve_many']['error_rel_play']:.0e} / "
+                f"{t['solve_loop']['error_rel_play']:.0e} / {peer['error_rel_play']:.0e} |"
+            )
+        print(
+            "\n| arm | load cases: solve_many [ms per case] (cases, rate) | loop of solve [ms] | "
+            "prebuilt Clarabel 1e-12 / default [ms] (+ reduction) | solve_many: 1e5 cases [s] | "
+            "error solve_many / loop / prebuilt [of the play] |"
+        )
+        print("|---" * 6 + "|")
+        for name, entry in arm_rows.items():
+            c = entry["loads"]
+            many, peer = c["solve_many"], c["clarabel_prebuilt"]
+            projected = "measured" if many["cases"] >= 100_000 else "projected"
+            print(
+                f"| {name} | {many['per_case_s'] * 1e3:.3f} ({many['cases']}, "
+                f"{many['cases_per_s']:.0f}/s) | {c['solve_loop']['median_s'] * 1e3:.3f} | "
+                f"{peer['clarabel_median_s'] * 1e3:.3f} / "
+                f"{c['clarabel_prebuilt_default']['clarabel_median_s'] * 1e3:.3f} "
+                f"(+ {peer['reduction_median_s'] * 1e3:.3f}) | "
+                f"{many['per_case_s'] * 1e5:.1f} ({projected}) | {many['error_rel_play']:.0e} / "
+                f"{c['solve_loop']['error_rel_play']:.0e} / {peer['error_rel_play']:.0e} |"
+            )
+
+
 def summary(cases: dict, tolerances: Tolerances) -> dict:
     """Across cases: shifted geometric mean of the median times per method, and worst errors."""
     methods = sorted({m for c in cases.values() for m in c})
@@ -856,7 +1163,10 @@ def print_tables(cases: dict, case_ratios: dict, totals: dict, references_info: 
             f"{'fail':>6}{'to 1e-9 mm: ms':>16}"
         )
         for name, e in methods.items():
-            setting = ", ".join(f"{k}={v:g}" for k, v in e["setting"].items())
+            setting = ", ".join(
+                f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}"
+                for k, v in e["setting"].items()
+            )
             m = e.get("matched")
             cpu = e.get("median_cpu_s")
             cpu = cpu * 1e3 if cpu is not None and math.isfinite(cpu) else math.nan
@@ -873,14 +1183,14 @@ def print_tables(cases: dict, case_ratios: dict, totals: dict, references_info: 
             "n/a: never reached); errors in mm (rotations in rad)"
         )
         print(
-            f"  {'case':<14}{'ours':<24}{'our error':>11}" + "".join(f"{p:>24}" for p in peer_names)
+            f"  {'case':<14}{'ours':<24}{'our error':>11}" + "".join(f"{p:>27}" for p in peer_names)
         )
         for case_id, table in case_ratios.items():
             first = next(iter(table.values()))
             print(
                 f"  {case_id:<14}{'(peer error)':<24}{'':>11}"
                 + "".join(
-                    f"{first[p]['error_peer_mm']:>24.1e}" if p in first else f"{'-':>24}"
+                    f"{first[p]['error_peer_mm']:>27.1e}" if p in first else f"{'-':>27}"
                     for p in peer_names
                 )
             )
@@ -889,12 +1199,12 @@ def print_tables(cases: dict, case_ratios: dict, totals: dict, references_info: 
                 for p in peer_names:
                     r = row.get(p)
                     if r is None:
-                        cells.append(f"{'-':>24}")
+                        cells.append(f"{'-':>27}")
                         continue
                     mt, ct = r["matched_time_ratio"], r["cpu_time_ratio"]
                     matched_text = f"{mt:6.2f}" if mt is not None else "   n/a"
                     cpu_text = f"{ct:.2f}" if ct is not None else "-"
-                    cells.append(f"{r['time_ratio']:>9.2f} /{cpu_text:>5} [{matched_text}]")
+                    cells.append(f"{r['time_ratio']:>12.2f} /{cpu_text:>5} [{matched_text}]")
                 error = next(iter(row.values()))["error_ours_mm"]
                 print(f"  {case_id:<14}{mine:<24}{error:>11.1e}" + "".join(cells))
     print("\nAcross cases: shifted geometric mean of the median times")
@@ -902,7 +1212,7 @@ def print_tables(cases: dict, case_ratios: dict, totals: dict, references_info: 
         worst = t["worst_error_mm"]
         cpu = t["shgeom_median_cpu_s"]
         print(
-            f"  {method:<24}{t['shgeom_median_s'] * 1e3:10.4f} ms (CPU "
+            f"  {method:<27}{t['shgeom_median_s'] * 1e3:10.4f} ms (CPU "
             f"{cpu * 1e3 if cpu is not None else math.nan:8.4f} ms) over {t['cases']:2d} cases, "
             f"worst error {worst if worst is not None else math.nan:.1e}"
         )
@@ -1007,57 +1317,6 @@ def _clean(value):
     return value
 
 
-def trajectory_benchmark(points: int) -> dict:
-    """A planner's use: the 6R arm (models/arm_6r.urdf) with its tool load along a trajectory of
-    all six joints (each q_i + 0.5 sin(phase + i), one turn of the phase over the points),
-    solved by ``solve_many(configurations=...)`` on a freshly loaded mechanism (its first solve
-    and every configuration's geometry included). Reference: cold solves (nothing carried
-    from the previous point) of every 10th point on another fresh mechanism; the two must agree."""
-    mechanism = clearance_pin.load(ROOT / "models" / "arm_6r.urdf")
-    phases = np.linspace(0.0, 2.0 * np.pi, points)
-    configurations = [
-        mechanism.q_nominal + 0.5 * np.sin(phase + np.arange(mechanism.model.nq))
-        for phase in phases
-    ]
-    gc.collect()
-    started = time.perf_counter()
-    batch = mechanism.solve_many(configurations=configurations, errors="return", progress=False)
-    wall = time.perf_counter() - started
-    cold_mechanism = clearance_pin.load(ROOT / "models" / "arm_6r.urdf")
-    cold_times, worst = [], 0.0
-    clearance = max(c.bound for j in cold_mechanism.joints.values() for c in j.clearance.contacts)
-    for k in range(0, points, 10):
-        started = time.perf_counter()
-        cold = cold_mechanism.solve(q=configurations[k], warm_start=False)
-        cold_times.append(time.perf_counter() - started)
-        if not isinstance(batch[k], Exception):
-            differences = [
-                float(np.abs(batch[k].torsors[name] - t).max()) for name, t in cold.torsors.items()
-            ]
-            worst = max(worst, *differences)
-    statuses: dict[str, int] = {}
-    for status in batch.statuses:
-        statuses[status] = statuses.get(status, 0) + 1
-    result = {
-        "model": "arm_6r",
-        "points": points,
-        "wall_s": wall,
-        "per_point_s": wall / points,
-        "seconds_per_1000_points": 1000.0 * wall / points,
-        "cold_median_s": float(np.median(cold_times)),
-        "max_difference_to_cold_rel": worst / clearance,
-        "ok": int(np.sum(batch.ok)),
-        "statuses": statuses,
-    }
-    print(
-        f"trajectory arm_6r: {points} points in {wall:.2f} s ({1e3 * wall / points:.2f} ms per "
-        f"point; cold solve {1e3 * result['cold_median_s']:.2f} ms), warm = cold to "
-        f"{result['max_difference_to_cold_rel']:.1e} of the clearance, {result['ok']} ok",
-        flush=True,
-    )
-    return result
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, help="write the results to this JSON file")
@@ -1074,6 +1333,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--budget", type=float, help="seconds per timed run (override)")
     parser.add_argument("--seed", type=int, help="seed of the load perturbations (override)")
     parser.add_argument("--replot", type=Path, help="only draw the PNG from this JSON file")
+    parser.add_argument(
+        "--arms",
+        nargs="*",
+        choices=arms.ARMS,
+        help="arm runs of these arms (no name: all; default: all unless --cases is given)",
+    )
+    parser.add_argument("--no-arms", action="store_true", help="no arm runs")
+    parser.add_argument("--arm-points", type=int, help="points of each arm trajectory (override)")
+    parser.add_argument(
+        "--arm-loads", type=int, nargs="+", help="sizes of the arms' tool-load runs (override)"
+    )
+    parser.add_argument("--no-floor", action="store_true", help="skip the floor (floor.py)")
     args = parser.parse_args(argv)
     if args.replot:
         document = json.loads(args.replot.read_text())
@@ -1091,6 +1362,12 @@ def main(argv: list[str] | None = None) -> int:
         overrides["budget_s"] = args.budget
     if args.seed is not None:
         overrides["seed"] = args.seed
+    if args.arm_points:
+        overrides["arm_points"] = args.arm_points
+    if args.arm_loads:
+        overrides["arm_loads"] = tuple(args.arm_loads)
+    if args.no_floor:
+        overrides["floor_rows"] = 0
     if overrides:
         settings = RunSettings(**{**asdict(settings), **overrides})
     tolerances = Tolerances()
@@ -1103,7 +1380,13 @@ def main(argv: list[str] | None = None) -> int:
     cases = load_cases(args.cases)
     if not cases:
         parser.error(f"no case matches {args.cases}")
-    results, refs_info, info = {}, {}, {}
+    if args.no_arms:
+        arm_names = []
+    elif args.arms is not None:
+        arm_names = list(args.arms) or list(arms.ARMS)
+    else:
+        arm_names = [] if args.cases else list(arms.ARMS)
+    results, refs_info, info, floors = {}, {}, {}, {}
     for case in cases:
         # one stream per case: a case's loads do not depend on which other cases run
         rng = np.random.default_rng([settings.seed, zlib.crc32(case.id.encode())])
@@ -1121,26 +1404,28 @@ def main(argv: list[str] | None = None) -> int:
         results[case.id], refs_info[case.id] = run_case(
             case, settings, tolerances, lambda line: print(line, flush=True)
         )
+        if "floor" in refs_info[case.id]:
+            floors[case.id] = refs_info[case.id].pop("floor")
         info[case.id] = {
             "build_and_first_solve_s": case.build_s,
             "joints": list(case.joints),
             "peers": case.shaft is not None,
             "reference": refs_info[case.id],
         }
-    trajectory = (
-        trajectory_benchmark(settings.trajectory_points)
-        if not args.cases or "model:arm_6r" in args.cases
-        else None
-    )
+    arm_results = arms.arm_benchmarks(arm_names, settings, lambda line: print(line, flush=True))
     case_ratios = ratios(results)
+    ranges = ratio_ranges(case_ratios, results, floors)
     totals = summary(results, tolerances)
     print_tables(results, case_ratios, totals, refs_info)
+    print_markdown(ranges, results, floors, arm_results)
     document = {
         "cases": results,
         "ratios": case_ratios,
+        "ratio_ranges": ranges,
         "summary": totals,
         "case_info": info,
-        "trajectory": trajectory,
+        "floor": floors,
+        "arms": arm_results,
         "settings": asdict(settings),
         "tolerances": asdict(tolerances),
         "machine": {

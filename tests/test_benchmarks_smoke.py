@@ -40,7 +40,9 @@ def _module(name: str):
 
 def test_work_precision_json_shape(tmp_path):
     """One paper case, 4 loads: every method of ours and every peer reports a positive median time,
-    a finite error and its peer flag under cases/<id>/<method>; the ratio table has every pair."""
+    a finite error and its peer flag under cases/<id>/<method>; the ratio table has every pair;
+    the floor of the case and a short run of the 6R arm (10 trajectory points, 40 load cases)
+    report times and errors against the closed form."""
     pytest.importorskip("matplotlib")  # --plots
     work_precision = _module("work_precision")
     out = tmp_path / "wp.json"
@@ -58,6 +60,12 @@ def test_work_precision_json_shape(tmp_path):
             str(out),
             "--plots",
             str(tmp_path),
+            "--arms",
+            "arm_6r",
+            "--arm-points",
+            "10",
+            "--arm-loads",
+            "40",
         ],
     )
     assert code == 0
@@ -76,6 +84,19 @@ def test_work_precision_json_shape(tmp_path):
         assert methods[name]["error_nominal_mm"] < 1e-9
     ratios = document["ratios"]["6.1.6.1a"]
     assert set(ratios) == ours and all(set(row) == theirs for row in ratios.values())
+    assert set(document["ratio_ranges"]["peers"]) <= ours
+    floor = document["floor"]["6.1.6.1a"]
+    if floor["measured"]:
+        assert floor["single_s"] > 0.0 and floor["vectorised_per_load_s"] > 0.0
+        assert floor["error_mm"] < 1e-9
+    arm = document["arms"]["arm_6r"]
+    for run in ("trajectory", "loads"):
+        for path in ("solve_many", "solve_loop", "clarabel_prebuilt", "clarabel_prebuilt_default"):
+            entry = arm[run][path]
+            assert math.isfinite(entry["error_rel_play"]), (run, path)
+            if not path.startswith("clarabel"):  # ours: verified, and on the closed form
+                assert entry["ok"] > 0 and entry["error_rel_play"] < 1e-9, (run, path)
+    assert arm["trajectory"]["points"] == 10 and arm["loads"]["solve_many"]["cases"] == 40
     assert (tmp_path / "work_precision.png").stat().st_size > 0
 
 
