@@ -183,6 +183,13 @@ def solve_many(
     options = {"exact": exact, "gravity": gravity, "tol": tol, "backend": backend}
     show = progress if progress is not None else (None if len(cases) > 100 else False)
     bar = Progress(len(cases), "solve_many", show)
+    if executor is None and not exact and backend == "auto":
+        from .block_batch import solve_blocks  # closed forms of a tree's independent joints
+
+        blocks = solve_blocks(mechanism, cases, configurations is not None, options, errors, bar)
+        if blocks is not None:
+            bar.close()
+            return blocks
     if executor is None:
         if configurations is None and not exact and len(cases) >= BATCH_MINIMUM:
             batch = _solve_loads_batched(mechanism, cases, options, errors, bar)

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConditioningWarning, SolverError
+from .block_verify import closed_form_answer
 from .cone_solver import WarmBet, backend_for, solve_cone
 from .linear_answer import assemble_linear
 from .prepared import prepared_geometry
@@ -62,6 +63,10 @@ def solve_linear(
                 indeterminate,
             )
         return indeterminate
+    closed = closed_form_answer(prepared, problem, loads, started) if backend == "auto" else None
+    if closed is not None:  # a tree whose joints are independent blocks (blocks.py), verified
+        _warn_if_inaccurate(mechanism, closed, problem.conditioning)
+        return closed
     cache = mechanism.cache
     built, built_now = backend_for(problem, backend, tol, prepared.signature, cache.backends)
     warm = cache.warm.get(prepared.signature) if warm_start else None

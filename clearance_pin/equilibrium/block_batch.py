@@ -1,0 +1,327 @@
+"""``solve_many`` for a tree whose joints are independent blocks (:mod:`.blocks`): every case at once.
+
+Load cases at one configuration (:func:`solve_load_cases`) and trajectories of the driven joints
+(:func:`solve_configurations`) share one path: the body wrenches of all cases
+(:mod:`.load_table`), their gradients (one matrix product at one configuration, the tree sums of
+:mod:`.tree_trajectory` along a trajectory), the closed forms of all cases, then the verification
+of all cases (:mod:`.block_verify`), each vectorised over the cases with numpy. Verified cases are
+kept as arrays: ``torsors(joint)``, ``ok``, ``energy`` and ``statuses`` read them, and an item is
+assembled as an :class:`~.result.Equilibrium` only when it is read. Every other case (a load on
+an unblocked motion, a group between loaded and unloaded, an answer that does not verify, a load
+that cannot be read) is solved alone by :meth:`Mechanism.solve`, in order.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..errors import ClearancePinError
+from .batch import EquilibriumBatch
+from .batch_kinematics import body_placements
+from .block_verify import RESIDUAL_NAMES, SOLVER_STATUS, flat_notes, verify
+from .blocks import (
+    Array,
+    BlockStructure,
+    ClosedForms,
+    Mask,
+    block_structure,
+    closed_forms,
+    reduced_unknowns,
+)
+from .linear_answer import assemble_linear
+from .load_table import LoadTable, body_wrenches, load_table
+from .prepared import PreparedGeometry, prepared_geometry
+from .reduction import loaded_problem
+from .tree_trajectory import Objectives, objectives_of, tree_gradients, tree_maps
+
+if TYPE_CHECKING:
+    from ..mechanism import Mechanism
+    from ..progress import Progress
+    from .result import Equilibrium
+
+Case = tuple[Any, Any]  # (loads or None, configuration or None), as batch._cases pairs them
+CHUNK = 2048  # cases per vectorised pass (its arrays stay in the cache)
+
+
+class BlockBatch(EquilibriumBatch):
+    """An :class:`~.batch.EquilibriumBatch` whose closed-form cases live in arrays: an item is
+    assembled when it is read (``build(i)``), the whole-batch properties read the arrays."""
+
+    def __init__(
+        self,
+        items: list[Any],
+        x: Array,
+        closed: Mask,
+        energies: Array,
+        torsor_maps: dict[str, Array],
+        build: Callable[[int], Equilibrium],
+    ):
+        super().__init__(items, {"x": x, "batched": closed, "torsor_maps": torsor_maps})
+        self._closed = closed
+        self._energies = energies
+        self._build = build
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        item = self._items[index]  # an IndexError for an index out of range
+        if item is None:
+            position = int(index) % len(self._items)
+            item = self._items[position] = self._build(position)
+        return item
+
+    @property
+    def energy(self) -> Array:
+        """Potential of the loads per case [J] (NaN for errors), (N,)."""
+        out = self._energies.copy()
+        for i in np.flatnonzero(~self._closed):
+            item = self[i]
+            out[i] = np.nan if isinstance(item, Exception) else item.energy
+        return out
+
+    @property
+    def statuses(self) -> list[str]:
+        """Solver status per case (the error's class name for errors)."""
+        return [
+            SOLVER_STATUS
+            if self._closed[i]
+            else (type(r).__name__ if isinstance(r := self[i], Exception) else r.solver_status)
+            for i in range(len(self))
+        ]
+
+
+def _structure(mechanism: Mechanism) -> tuple[PreparedGeometry, BlockStructure] | None:
+    if mechanism.loop_joints:
+        return None
+    prepared = prepared_geometry(mechanism)  # builds the tree's one geometry on first use
+    structure = block_structure(prepared.geometry, False)
+    return None if structure is None else (prepared, structure)
+
+
+def solve_load_cases(
+    mechanism: Mechanism,
+    cases: Sequence[Case],
+    options: dict[str, Any],
+    errors: str,
+    progress: Progress,
+) -> EquilibriumBatch | None:
+    """Load cases at the nominal configuration; None when the closed forms do not apply."""
+    found = _structure(mechanism)
+    if found is None:
+        return None
+    prepared, structure = found
+    table = load_table(mechanism, [loads for loads, _ in cases], options["gravity"])
+    origin = prepared.configuration.oMi
+    rotations = np.array([m.rotation for m in origin])[None]
+    translations = np.array([m.translation for m in origin])[None]
+    wrenches = body_wrenches(table, rotations, translations, prepared.bodies, per_case=False)
+    # g = -sum_b J_b^T W_b: one product with the body twist maps of this configuration
+    gradients = wrenches.reshape(len(cases), -1) @ -np.vstack(prepared.maps.body_twist)
+    objectives = objectives_of(prepared, gradients, wrenches)
+    return _finish(
+        mechanism,
+        cases,
+        options,
+        errors,
+        progress,
+        prepared,
+        structure,
+        objectives,
+        table.valid,
+        lambda i: prepared,
+    )
+
+
+def solve_configurations(
+    mechanism: Mechanism,
+    cases: Sequence[Case],
+    options: dict[str, Any],
+    errors: str,
+    progress: Progress,
+) -> EquilibriumBatch | None:
+    """A trajectory (one configuration per case, loads shared or paired); None when the closed
+    forms do not apply."""
+    found = _structure(mechanism)
+    if found is None:
+        return None
+    prepared, structure = found
+    configurations = [prepared.configuration.q if q is None else q for _, q in cases]
+    rotations, translations = body_placements(mechanism, configurations)
+    shared = all(loads is None for loads, _ in cases)
+    if shared:  # one load table, repeated (the loads are the same at every point)
+        one = load_table(mechanism, [None], options["gravity"])
+        table = _repeated(one, len(cases))
+    else:
+        table = load_table(mechanism, [loads for loads, _ in cases], options["gravity"])
+    wrenches = body_wrenches(table, rotations, translations, prepared.bodies, per_case=True)
+    gradients = tree_gradients(tree_maps(mechanism), rotations, translations, wrenches)
+    objectives = objectives_of(prepared, gradients, wrenches)
+
+    def prepared_at(i: int) -> PreparedGeometry:
+        return prepared_geometry(mechanism, configurations[i])
+
+    return _finish(
+        mechanism,
+        cases,
+        options,
+        errors,
+        progress,
+        prepared,
+        structure,
+        objectives,
+        table.valid,
+        prepared_at,
+    )
+
+
+def solve_blocks(
+    mechanism: Mechanism,
+    cases: Sequence[Case],
+    along: bool,
+    options: dict[str, Any],
+    errors: str,
+    progress: Progress,
+) -> EquilibriumBatch | None:
+    """``solve_many``'s cases by closed forms: a trajectory when ``along`` (configurations
+    given), else load cases at the nominal configuration; None when the closed forms do not apply
+    to this mechanism (loop joints, a prismatic block, ...)."""
+    if not cases:
+        return None
+    solve = solve_configurations if along else solve_load_cases
+    return solve(mechanism, cases, options, errors, progress)
+
+
+def _repeated(table: LoadTable, count: int) -> LoadTable:
+    """A one-case load table repeated for ``count`` cases."""
+    rows = table.case.size
+    return replace(
+        table,
+        count=count,
+        case=np.repeat(np.arange(count, dtype=np.intp), rows),
+        body=np.tile(table.body, count),
+        force=np.tile(table.force, (count, 1)),
+        point=np.tile(table.point, (count, 1)),
+        torque=np.tile(table.torque, (count, 1)),
+        valid=np.repeat(table.valid, count),
+    )
+
+
+def _finish(
+    mechanism: Mechanism,
+    cases: Sequence[Case],
+    options: dict[str, Any],
+    errors: str,
+    progress: Progress,
+    nominal: PreparedGeometry,
+    structure: BlockStructure,
+    terms: Objectives,
+    valid: Mask,
+    prepared_at: Callable[[int], PreparedGeometry],
+) -> EquilibriumBatch:
+    """Closed forms and verification of every case; single solves for the rest."""
+    closed, y, table, verified = _closed_and_verified(nominal, structure, terms)
+    done = terms.regular & valid & closed.decided & verified
+    progress.update(int(done.sum()))
+    items: list[Any] = [None] * len(cases)
+    for i in np.flatnonzero(~done).tolist():
+        case_loads, q = cases[i]
+        try:
+            items[i] = mechanism.solve(loads=case_loads, q=q, **options)
+        except ClearancePinError as exc:
+            if errors == "raise":
+                raise
+            items[i] = exc
+        progress.update()
+    x = np.where(done[:, None], closed.x, np.nan)
+    energies = np.where(done, np.einsum("ni,ni->n", terms.gradients, closed.x), np.nan)
+    torsor_maps = {name: nominal.maps.joint_torsor[name] for name in mechanism.joints}
+
+    def build(i: int) -> Equilibrium:
+        return _item(
+            mechanism, options, prepared_at(i), structure, terms, closed, y, table, cases[i][0], i
+        )
+
+    return BlockBatch(items, x, done, energies, torsor_maps, build)
+
+
+def _closed_and_verified(
+    nominal: PreparedGeometry, structure: BlockStructure, terms: Objectives
+) -> tuple[ClosedForms, Array, Array, Mask]:
+    """The closed forms of every case and their verification, in chunks of :data:`CHUNK` cases
+    (arrays that stay in the processor's cache): (closed forms, y (N, r), KKT table (N, 4),
+    verified (N,))."""
+    parts: list[tuple[ClosedForms, Array, Array, Mask]] = []
+    for start in range(0, max(len(terms.sigmas), 1), CHUNK):
+        part = slice(start, start + CHUNK)
+        closed = closed_forms(structure, terms.gradients[part], terms.sigmas[part])
+        y = reduced_unknowns(structure, closed.x)
+        check = verify(  # the geometry and its terms are the same at every configuration
+            nominal,
+            structure,
+            terms.objectives[part],
+            y,
+            closed.x,
+            closed.multipliers,
+            closed.signs,
+            terms.sigmas[part],
+            terms.gradients[part],
+            terms.load_sizes[part],
+        )
+        parts.append((closed, y, check.table, check.verified))
+    if len(parts) == 1:
+        return parts[0]
+    return (
+        ClosedForms(
+            *(np.concatenate([getattr(p[0], f) for p in parts]) for f in ClosedForms.FIELDS)
+        ),
+        np.concatenate([p[1] for p in parts]),
+        np.concatenate([p[2] for p in parts]),
+        np.concatenate([p[3] for p in parts]),
+    )
+
+
+def _item(
+    mechanism: Mechanism,
+    options: dict[str, Any],
+    prepared: PreparedGeometry,
+    structure: BlockStructure,
+    terms: Objectives,
+    closed: ClosedForms,
+    y: Array,
+    table: Array,
+    case_loads: Any,
+    i: int,
+) -> Equilibrium:
+    """The Equilibrium of closed-form case i, as a single solve assembles its answer."""
+    problem = loaded_problem(
+        prepared.geometry,
+        terms.gradients[i],
+        terms.objectives[i],
+        float(terms.sigmas[i]),
+        float(terms.load_sizes[i]),
+        float(terms.shares[i]),
+    )
+    gravity = options["gravity"]
+    return assemble_linear(
+        prepared,
+        problem,
+        y[i],
+        closed.multipliers[i],
+        closed.signs[i],
+        "optimal",
+        SOLVER_STATUS,
+        0,
+        True,
+        0.0,
+        0.0,
+        dict(zip(RESIDUAL_NAMES, map(float, table[i]))),
+        mechanism.resolve_loads(case_loads, False if gravity is False else gravity),
+        flat_notes(prepared, structure, closed.unloaded[i]),
+    )
+
+
+__all__ = ["BlockBatch", "solve_blocks", "solve_configurations", "solve_load_cases"]

@@ -1,0 +1,198 @@
+r"""Verification of closed-form answers (:mod:`.blocks`), vectorised over cases, as a single solve
+verifies its own: the same measured quantities and the same tolerances.
+
+In the reduced programme of :mod:`.reduction` (y = Q^T x / Z, images :math:`v = P y + o`):
+
+- KKT (dimensionless): stationarity :math:`\lVert f + \sum_j \lambda_j \nabla\phi_j \rVert_\infty`
+  with :math:`\sum_j \lambda_j \nabla\phi_j = (\lambda_{j(i)} w_i)_i^T P`, :math:`w_i = 2 v_i`
+  (ball, disc) or :math:`s_j` (slab side); feasibility :math:`\max(\phi_j, 0)`, complementarity
+  :math:`|\lambda_j \phi_j|`, dual infeasibility :math:`\max(-\lambda_j, 0)`, all at most the
+  single solve's acceptance (:func:`.cone_solver.acceptance`), multipliers >= -1e-12 and every
+  contact within 1e-13 of its set;
+- statics in x (:meth:`.prepared.PreparedGeometry.statics_residual`) of the contact forces
+  :math:`f_j = -2\sigma\lambda_j (o_j + S_j x)/c_j^2` (ball, disc) or
+  :math:`-\sigma\lambda_j s_j / c_j` (slab) [N], at most 1e-8, and penetration at most 1e-9 of
+  the play (:class:`.residuals.Tolerances`).
+
+A case that fails any of them is solved by the general path.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .blocks import Array, BlockStructure, Mask, block_structure, closed_forms, reduced_unknowns
+from .cone_solver import acceptance
+from .kkt import StackedContacts
+from .lazy import LazySequence
+from .linear_answer import assemble_linear
+from .reduction import ReducedProblem, describe_motion
+from .residuals import DUAL_TOLERANCE, FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
+
+if TYPE_CHECKING:
+    from .prepared import PreparedGeometry
+    from .result import Equilibrium
+
+RESIDUAL_NAMES = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
+SOLVER_STATUS = "closed form"
+
+
+@dataclass(frozen=True)
+class Verification:
+    """Per case: verified (N,), the KKT table (N, 4) (:data:`RESIDUAL_NAMES`), statics (N,)."""
+
+    verified: Mask
+    table: Array
+    statics: Array
+
+
+def kkt_table(
+    prepared: PreparedGeometry,
+    structure: BlockStructure,
+    objectives: Array,
+    y: Array,
+    multipliers: Array,
+    signs: Array,
+) -> tuple[Mask, Array]:
+    """The reduced programme's KKT test of N answers (module docstring, first item): objectives
+    f (N, r), reduced unknowns y (N, r), multipliers and slab sides (N, m); returns (passed (N,),
+    the table (N, 4) of :data:`RESIDUAL_NAMES`)."""
+    stack: StackedContacts = prepared.geometry.stack
+    image = y @ stack.matrix.T  # + o: zero for a tree (blocks.block_structure)
+    squares = (image * image) @ structure.row_sums  # the stack's rows and contacts
+    phi = np.where(stack.is_norm, squares, np.abs(image[:, stack.starts])) - 1.0  # either side
+    weights = np.where(stack.row_is_norm, 2.0 * image, signs[:, stack.row_contact])
+    pull = (multipliers[:, stack.row_contact] * weights) @ stack.matrix
+    table = np.stack(
+        [
+            np.abs(objectives + pull).max(axis=1, initial=0.0),
+            np.maximum(phi, 0.0).max(axis=1, initial=0.0),
+            np.abs(multipliers * phi).max(axis=1, initial=0.0),
+            np.maximum(-multipliers, 0.0).max(axis=1, initial=0.0),
+        ],
+        axis=1,
+    )
+    passed = (
+        (table.max(axis=1) <= acceptance(prepared.geometry.conditioning))
+        & (multipliers.min(axis=1, initial=0.0) >= -1e-12)
+        & (phi.max(axis=1, initial=-1.0) <= 1e-13)
+    )
+    return passed, table
+
+
+def verify(
+    prepared: PreparedGeometry,
+    structure: BlockStructure,
+    objectives: Array,
+    y: Array,
+    x: Array,
+    multipliers: Array,
+    signs: Array,
+    sigmas: Array,
+    gradients: Array,
+    load_sizes: Array,
+) -> Verification:
+    """Verify N answers (module docstring) of the geometry of ``prepared`` and ``structure``
+    (:func:`.blocks.block_structure`, its rows stacked as the geometry's): objectives f (N, r),
+    reduced unknowns y (N, r),
+    unknowns x (N, n), multipliers and slab sides (N, m), objective scales (N,) [J], gradients
+    g (N, n), load sizes (N,) [J]."""
+    passed, table = kkt_table(prepared, structure, objectives, y, multipliers, signs)
+    terms = prepared.terms
+    rows = terms.contact_of_row
+    x_image = x @ terms.contact_rows.T  # + offsets: zero for a tree
+    gaps = prepared.bounds - np.sqrt((x_image * x_image) @ structure.row_sums)
+    forces = (sigmas[:, None] * multipliers[:, rows]) * (
+        terms.norm_force * x_image + terms.slab_force * signs[:, rows]
+    )
+    statics = np.reshape(prepared.statics_residual(gradients, forces, load_sizes), -1)
+    violation = np.maximum(-gaps / prepared.bounds, 0.0).max(axis=1, initial=0.0)
+    verified = (
+        passed
+        & (table[:, 3] <= DUAL_TOLERANCE)
+        & (statics <= STATICS_TOLERANCE)
+        & (violation <= FEASIBILITY_TOLERANCE)
+    )
+    return Verification(verified, table, statics)
+
+
+def flat_notes(
+    prepared: PreparedGeometry, structure: BlockStructure, unloaded: Mask
+) -> Sequence[str]:
+    """The free-motion notes of the groups left at zero (``unloaded`` (G,)): one per unknown, as
+    :meth:`~.prepared.PreparedGeometry.flat_directions` words them."""
+    columns = [int(c) for g in np.flatnonzero(unloaded) for c in structure.group_columns[g]]
+    if not columns:
+        return ()
+    mechanism, size = prepared.mechanism, structure.size_x
+
+    def notes() -> list[str]:
+        return [
+            "bounded but not loaded (the optimum is not unique; minimum-norm point returned): "
+            + "; ".join(
+                describe_motion(
+                    prepared.maps, mechanism.joints, np.eye(size)[column], prepared.length
+                )
+            )
+            for column in columns
+        ]
+
+    return LazySequence(notes)  # type: ignore[no-untyped-call]
+
+
+def closed_form_answer(
+    prepared: PreparedGeometry,
+    problem: ReducedProblem,
+    loads: tuple[object, ...],
+    started: float,
+) -> Equilibrium | None:
+    """The verified closed-form equilibrium of one load (:mod:`.blocks`), or None when the
+    closed forms do not apply to this mechanism or this load (the general path solves it)."""
+    structure = block_structure(prepared.geometry, bool(prepared.mechanism.loop_joints))
+    if structure is None or not problem.objective_scale > 0.0:
+        return None
+    gradients = problem.gradient[None, :]
+    sigmas = np.array([problem.objective_scale])
+    closed = closed_forms(structure, gradients, sigmas)
+    if not closed.decided[0]:
+        return None
+    y = reduced_unknowns(structure, closed.x)
+    passed, table = kkt_table(
+        prepared, structure, problem.objective[None, :], y, closed.multipliers, closed.signs
+    )
+    if not passed[0]:
+        return None
+    # statics and penetration: measured by the answer itself (Equilibrium.ok below)
+    answer = assemble_linear(
+        prepared,
+        problem,
+        y[0],
+        closed.multipliers[0],
+        closed.signs[0],
+        "optimal",
+        SOLVER_STATUS,
+        0,
+        True,
+        0.0,
+        time.perf_counter() - started,
+        dict(zip(RESIDUAL_NAMES, map(float, table[0]))),
+        loads,
+        flat_notes(prepared, structure, closed.unloaded[0]),
+    )
+    return answer if answer.ok else None
+
+
+__all__ = [
+    "RESIDUAL_NAMES",
+    "SOLVER_STATUS",
+    "Verification",
+    "closed_form_answer",
+    "flat_notes",
+    "kkt_table",
+    "verify",
+]

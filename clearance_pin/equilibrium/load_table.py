@@ -1,0 +1,195 @@
+r"""Many load cases as arrays: one row per load term on a body, and the body wrenches of all cases.
+
+The loads of N cases (each a list of :class:`~clearance_pin.model.loads.PointForce`,
+``Torque`` and ``Gravity``, resolved as :meth:`Mechanism.resolve_loads` resolves them) become rows
+(case, body, F [N], point p in the body frame [m], C [N m]), world axes; gravity is one row per
+body with mass (:math:`F = m a`, p its centre of mass). With the body placements
+:math:`(R_b, t_b)` of each case (one configuration for all, or one per case) the wrench of each
+body at the world origin is (:mod:`.load_terms`)
+
+.. math::  W_b = \Big(\sum F,\ \sum (R_b p + t_b) \times F + C\Big) \qquad [N,\ N\,m],
+
+summed per case and body by one weighted count per component. A case whose loads cannot be read
+(an unknown link, not a load) is marked invalid and left to a single solve, which raises or
+reports its error.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+from itertools import compress
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..model.loads import Gravity, PointForce, Torque
+from .blocks import Array, Index, Mask
+
+if TYPE_CHECKING:
+    from ..mechanism import Mechanism
+
+
+@dataclass(frozen=True)
+class LoadTable:
+    """The load terms of N cases.
+
+    Attributes:
+        count: number of cases N.
+        case: per row, its case, (L,).
+        body: per row, its body (Pinocchio joint index >= 1), (L,).
+        force: per row, F (L, 3) [N], world axes.
+        point: per row, p (L, 3) [m], body frame.
+        torque: per row, C (L, 3) [N m], world axes.
+        valid: per case, all its loads were read, (N,).
+        gravity: the acceleration (3,) [m/s^2] of the gravity every case has (the model's or the
+            solve's option), None without; its terms are formed once per configuration.
+        weighed: the bodies with mass, (B_m,); masses (B_m,) [kg]; levers: their centres of mass
+            in the body frames (B_m, 3) [m].
+    """
+
+    count: int
+    case: Index
+    body: Index
+    force: Array
+    point: Array
+    torque: Array
+    valid: Mask
+    gravity: Array | None
+    weighed: Index
+    masses: Array
+    levers: Array
+
+
+def _gravity_of(mechanism: Mechanism, gravity: object) -> Gravity | None:
+    """The gravity a solve adds (as :meth:`Mechanism.resolve_loads` decides it)."""
+    if gravity is True:
+        return mechanism.gravity or Gravity()
+    if gravity is None:
+        return mechanism.gravity
+    return gravity if isinstance(gravity, Gravity) else None
+
+
+KIND = {PointForce: 0, Torque: 1, Gravity: 2}  # any other object: 3, not a load
+
+
+def load_table(
+    mechanism: Mechanism, cases: Sequence[Sequence[object] | None], gravity: object
+) -> LoadTable:
+    """The load terms of ``cases`` (None: the model's loads) with ``gravity`` (an option of
+    :meth:`Mechanism.solve`)."""
+    model, links = mechanism.model, mechanism.link_frames
+    frames = model.frames
+    names = list(links)
+    slot_of = {name: k for k, name in enumerate(names)}  # the link's row below
+    link_body = np.array([frames[links[name]].parentJoint for name in names], dtype=np.intp)
+    link_rotation = np.array([frames[links[name]].placement.rotation for name in names])
+    link_origin = np.array([frames[links[name]].placement.translation for name in names])
+    default = tuple(mechanism.loads)
+    lists = [
+        default if case is None else case if isinstance(case, (list, tuple)) else [*case]
+        for case in cases
+    ]
+    owner = np.repeat(np.arange(len(lists), dtype=np.intp), [len(items) for items in lists])
+    loads: list[object] = list(itertools.chain.from_iterable(lists))
+    kind = np.array([KIND.get(type(load), 3) for load in loads], dtype=np.intp)
+    valid = np.ones(len(cases), dtype=bool)
+    valid[owner[kind == 3]] = False
+    on_link = np.flatnonzero(kind < 2)  # forces and torques: on a link
+    located = loads if on_link.size == len(loads) else list(compress(loads, (kind < 2).tolist()))
+    slot = np.array([slot_of.get(load.link, -1) for load in located], dtype=np.intp)  # type: ignore[attr-defined]
+    valid[owner[on_link[slot < 0]]] = False  # an unknown link: the single solve raises
+    body = np.where(slot >= 0, link_body[slot], 0)
+    keep = body > 0  # a load on the ground does no work
+    is_force = kind[on_link] == 0
+    rows = keep & is_force
+    forces = located if rows.all() else list(compress(located, rows.tolist()))
+    force = _rows([load.force for load in forces])  # type: ignore[attr-defined]
+    point = _rows([load.point for load in forces])  # type: ignore[attr-defined]
+    in_body = np.empty_like(point)  # the point in its body's frame: one product per link
+    link_of = slot[rows]
+    for link in np.unique(link_of).tolist():
+        chosen = link_of == link
+        in_body[chosen] = point[chosen] @ link_rotation[link].T + link_origin[link]
+    turning = keep & ~is_force
+    torque = _rows([load.torque for load in compress(located, turning.tolist())])  # type: ignore[attr-defined]
+    heavy = [b for b in range(1, model.njoints) if model.inertias[b].mass > 0.0]
+    weighed = np.array(heavy, dtype=np.intp)
+    masses = np.array([model.inertias[b].mass for b in heavy])
+    levers = np.array([np.array(model.inertias[b].lever) for b in heavy]).reshape(-1, 3)
+    # a Gravity among a case's loads: one row per body with mass
+    pulled = np.flatnonzero(kind == 2)
+    acceleration = np.array(
+        [load.acceleration for load in compress(loads, (kind == 2).tolist())]  # type: ignore[attr-defined]
+    ).reshape(-1, 3)
+    weight = (acceleration[:, None, :] * masses[None, :, None]).reshape(-1, 3)
+    added = _gravity_of(mechanism, gravity)
+    n_force, n_torque, n_weight = len(force), len(torque), len(weight)
+    return LoadTable(
+        count=len(cases),
+        case=np.concatenate(
+            [
+                owner[on_link[rows]],
+                np.repeat(owner[pulled], weighed.size),
+                owner[on_link[turning]],
+            ]
+        ),
+        body=np.concatenate([body[rows], np.tile(weighed, pulled.size), body[turning]]),
+        force=np.concatenate([force, weight, np.zeros((n_torque, 3))]),
+        point=np.concatenate([in_body, np.tile(levers, (pulled.size, 1)), np.zeros((n_torque, 3))]),
+        torque=np.concatenate([np.zeros((n_force + n_weight, 3)), torque]),
+        valid=valid,
+        gravity=None if added is None else np.array(added.acceleration, dtype=float),
+        weighed=weighed,
+        masses=masses,
+        levers=levers,
+    )
+
+
+def _rows(vectors: list[Array]) -> Array:
+    """3-vectors (float arrays, as the loads keep them) stacked as rows (L, 3), through one
+    buffer (a third of numpy.array's time on 1e5 small arrays)."""
+    data = b"".join([vector.tobytes() for vector in vectors])
+    if len(data) != 24 * len(vectors):  # not float64 3-vectors: the general conversion
+        return np.array(vectors, dtype=float).reshape(-1, 3)
+    return np.frombuffer(data).reshape(-1, 3).copy()
+
+
+def body_wrenches(
+    table: LoadTable, rotations: Array, translations: Array, bodies: int, per_case: bool
+) -> Array:
+    """Body wrenches at the world origin of every case, (N, bodies, 6) [N, N m] (ground row 0).
+
+    Args:
+        rotations, translations: body placements (K, bodies, 3, 3) and (K, bodies, 3), with
+            K = N (``per_case``: a trajectory) or 1 (one configuration for every case).
+    """
+    if per_case:
+        rotation = rotations[table.case, table.body]
+        world = (rotation @ table.point[:, :, None])[:, :, 0] + translations[table.case, table.body]
+    else:  # one configuration: one (L_b, 3) product per loaded body
+        world = np.empty_like(table.point)
+        for body in np.unique(table.body).tolist():
+            rows = table.body == body
+            world[rows] = table.point[rows] @ rotations[0, body].T + translations[0, body]
+    moment = np.cross(world, table.force) + table.torque
+    slots = table.case * bodies + table.body
+    size = table.count * bodies
+    out = np.empty((table.count, bodies, 6))
+    for k in range(3):
+        out[:, :, k] = np.bincount(slots, table.force[:, k], size).reshape(table.count, bodies)
+        out[:, :, 3 + k] = np.bincount(slots, moment[:, k], size).reshape(table.count, bodies)
+    if table.gravity is not None and table.weighed.size:
+        # the shared gravity, once per configuration: (m a, c x m a), c = R lever + t
+        centres = (rotations[:, table.weighed] @ table.levers[:, :, None])[..., 0]
+        centres = centres + translations[:, table.weighed]
+        weight = table.masses[:, None] * table.gravity
+        shared = np.zeros((rotations.shape[0], bodies, 6))
+        shared[:, table.weighed, :3] = weight
+        shared[:, table.weighed, 3:] = np.cross(centres, weight)
+        out += shared  # (1 or N, bodies, 6): broadcast over the cases at one configuration
+    return out
+
+
+__all__ = ["LoadTable", "body_wrenches", "load_table"]
