@@ -1,6 +1,6 @@
 r"""Peers: the shaft problem of Younes, Dal Santo & Potiron written directly, as a user would.
 
-Each peer solves the 12-variable problem of METHOD.md section 1 for a shaft held on the ground by
+Each peer solves the 12-variable problem of docs/method.md section 2 for a shaft held on the ground by
 two joints in parallel (the cases of [Y] section 6), in the paper's units (mm, N, N mm, rad):
 
 .. math::

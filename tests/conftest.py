@@ -1,6 +1,6 @@
 """Shared helpers of the equilibrium, model-file and model tests.
 
-Everything here is written from METHOD.md section 1 and the model-file format, not from the
+Everything here is written from docs/method.md section 2 and the model-file format, not from the
 engine's internals: the paper cases are built from their SI inputs with the shaft builder, the
 model files are transformed as XML text (scaled, moved rigidly, clearances shrunk), and small URDFs
 are written out by hand.

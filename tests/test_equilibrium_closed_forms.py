@@ -1,4 +1,4 @@
-"""Closed-form equilibria of the small-displacement model (METHOD.md section 1).
+"""Closed-form equilibria of the small-displacement model (docs/method.md section 2).
 
 Each mechanism here is small enough that its equilibrium follows from the clearance sets by hand:
 a ball pushed by a force through its centre, a chain of pins with radial play under a tip force,

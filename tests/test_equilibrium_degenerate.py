@@ -1,4 +1,4 @@
-"""Degenerate loads and limiting clearances (METHOD.md section 1, "consequences worth knowing").
+"""Degenerate loads and limiting clearances (docs/method.md sections 2-3, the reduction's consequences).
 
 - A load along a motion that nothing blocks has no equilibrium: UnboundedLoadError naming it.
 - A load that works on no admissible motion leaves everything indeterminate: zero torsors.

@@ -1,6 +1,6 @@
 """The exact (finite-displacement) model against the small-displacement one.
 
-METHOD.md section 1: the exact model writes the same contact conditions on the true positions of
+docs/method.md sections 2 and 4: the exact model writes the same contact conditions on the true positions of
 the parts and differs from the linear model at second order (rotation x displacement). Shrinking
 every clearance by s therefore shrinks |exact - linear| like s^2, i.e. like s relative to the play.
 """

@@ -1,5 +1,5 @@
 r"""An independent formulation: the small-displacement shaft problem as a 12-variable second-order
-cone programme written from METHOD.md section 1 and solved by Clarabel called directly.
+cone programme written from docs/method.md section 2 and solved by Clarabel called directly.
 
 Unknowns (SI, clearance frames = world axes, joint axis x): :math:`T_1 = (V_1, \Omega_1)` and
 :math:`T_2 = (V_2, \Omega_2)` at the joint centres :math:`O_1, O_2`.

@@ -1,6 +1,6 @@
 """Numerical stability: scale, degenerate mechanisms, agreement between runs, known issues.
 
-The property each test checks is in its docstring. Closed forms used (METHOD.md section 1):
+The property each test checks is in its docstring. Closed forms used (docs/method.md section 2):
 
 - a part on a spherical joint of radial clearance c, loaded by a force F through the ball centre,
   moves by c F/|F| (both formulations: a pure translation);

@@ -1,4 +1,4 @@
-r"""Cross-check of a solved pose with coal (METHOD.md section 3): ``Equilibrium.check()``.
+r"""Cross-check of a solved pose with coal (docs/method.md section 5): ``Equilibrium.check()``.
 
 Place the parts at the solved pose (``Equilibrium.body_placements``) and let coal measure every
 clearance. For every contact point of every joint, the point of the child is measured against its

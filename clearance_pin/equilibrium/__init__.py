@@ -1,4 +1,4 @@
-r"""Quasi-static equilibrium of parts in their joint clearances (METHOD.md section 1).
+r"""Quasi-static equilibrium of parts in their joint clearances (docs/method.md section 2).
 
 Shared math: the equilibrium minimises the potential of the loads
 :math:`\mathcal{V} = -\sum (F\cdot U_P + C\cdot\Theta)` over the kinematically admissible

@@ -1,4 +1,4 @@
-r"""The exact finite-displacement equilibrium (METHOD.md section 1, "exact model").
+r"""The exact finite-displacement equilibrium (docs/method.md section 4).
 
 Each tree joint k moves its child by the finite rigid motion
 :math:`\Delta_k = C_k \exp(\widehat{B_k t_k}) C_k^{-1}` (SE(3) exponential of the torsor in the

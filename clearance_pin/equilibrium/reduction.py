@@ -1,6 +1,6 @@
 r"""The small-displacement equilibrium as a reduced, scaled cone programme.
 
-Problem (METHOD.md section 1, [Y]): minimise the potential :math:`g^T x` over the small
+Problem (docs/method.md section 2, [Y]): minimise the potential :math:`g^T x` over the small
 displacements x that close every loop (:math:`E x = 0`: rigid components of loop joints and contact
 points with zero clearance) and keep every contact point in its clearance set
 (:math:`\|S_j x\| \le c_j` or :math:`|s_j^T x| \le c_j`).

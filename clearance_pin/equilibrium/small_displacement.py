@@ -11,7 +11,7 @@ Spatial twists (at the world origin, world axes, Pinocchio's (v, omega) order) a
 which is how a Pinocchio joint Jacobian is built, with the 6-D clearance torsor in place of the
 joint's motion subspace. A loop joint between frames a and b has the torsor
 :math:`T = \mathrm{Ad}(oM_a\, aM_c)^{-1} (\xi_b - \xi_a)` at its centre, in its clearance frame:
-the difference of the two parts' twists transported to the joint centre (METHOD.md section 1,
+the difference of the two parts' twists transported to the joint centre (docs/method.md section 2,
 closure holds by construction). The point P of body i moves by :math:`v_i + \omega_i \times p`.
 """
 

@@ -3,7 +3,7 @@
 All in SI and in world axes at the nominal configuration. A load acts on a *link* (a URDF link,
 i.e. a Pinocchio BODY frame); its point is given in that link's frame.
 
-The potential of the loads (METHOD.md section 1, [Y]):
+The potential of the loads (docs/method.md section 2, [Y]):
 
 .. math::  \\mathcal{V} = -\\sum (F \\cdot U_P + C \\cdot \\Theta)
 
