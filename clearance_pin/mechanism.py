@@ -325,8 +325,7 @@ class Mechanism:
 
     def _solve(self, resolved, exact, q, tol, backend, accuracy, warm_start, outputs=None):
         points = resolve_outputs(self, resolved, outputs)
-        linear = solve_linear(self, resolved, q, tol, backend, warm_start)
-        linear = replace(linear, output_points=points)
+        linear = solve_linear(self, resolved, q, tol, backend, warm_start, points)
         if exact == "auto":
             estimate = estimate_difference(linear, resolved, q, points)
             error = max(estimate.translation_m, estimate.rotation_rad * self.length_scale())

@@ -8,6 +8,7 @@ are written out by hand.
 
 from __future__ import annotations
 
+import os
 import tomllib
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -17,6 +18,10 @@ import numpy as np
 
 import clearance_pin as cp
 from clearance_pin.model.builders import JointSpec, shaft_urdf
+
+# every re-solve of the suite goes the compiled way first (the kernel loads on the first one),
+# so that the whole suite checks it; tests/test_compiled_resolve.py compares it with the NumPy path
+os.environ.setdefault("CLEARANCE_PIN_COMPILED", "1")
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ROOT / "models"

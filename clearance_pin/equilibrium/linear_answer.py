@@ -34,42 +34,21 @@ def assemble_linear(
     residuals,
     loads: tuple,
     flat_notes=(),
+    output_points: tuple = (),
 ) -> Equilibrium:
     """The answer of the reduced solution (y, multipliers, slab sides ``signs``) for ``loads``,
     with the solver's KKT ``residuals`` and the ones measured here (module docstring)."""
     x = prepared.x_from_y @ y
     torsor_array = prepared.torsor_array(x)
     twists = prepared.body_twists(x)
-    mechanism = prepared.mechanism
     gaps, force_rows = prepared.contact_state(x, multipliers, signs, problem.objective_scale)
-    bounds = prepared.bounds
-    active = (gaps <= ACTIVE_RELATIVE_GAP * bounds) | (
-        (multipliers > 0.0) & (gaps <= 1e-6 * bounds)
-    )
-    contacts = LazySequence(
-        lambda: (
-            Contact(
-                c.joint,
-                c.contact.name,
-                float(gap),
-                float(bound),
-                force,
-                bool(touching),
-                np.array(c.contact.point),  # nominal place, in the joint's clearance frame
-                prepared.maps.joint_centre[c.joint].act(np.array(c.contact.point)),
-            )
-            for c, gap, bound, force, touching in zip(
-                problem.contacts, gaps, bounds, prepared.contact_forces(force_rows), active
-            )
-        )
-    )
     measured = Residuals.of(
         {
             **residuals,
             "statics": prepared.statics_residual(problem.gradient, force_rows, problem.load_size),
             "max_violation_m": max(float(-gaps.min(initial=0.0)), 0.0),
-            "max_violation_rel": max(float((-gaps / bounds).max(initial=0.0)), 0.0),
-            "clearance_m": float(bounds.max(initial=0.0)),
+            "max_violation_rel": max(float((-gaps / prepared.bounds).max(initial=0.0)), 0.0),
+            "clearance_m": float(prepared.bounds.max(initial=0.0)),
             "closure_conditioning": problem.conditioning,
             "unblocked_load": problem.unblocked_share,
             "largest_rotation_rad": float(
@@ -77,26 +56,92 @@ def assemble_linear(
             ),
         }
     )
+    return linear_equilibrium(
+        prepared,
+        torsor_array,
+        twists,
+        gaps,
+        force_rows,
+        multipliers,
+        measured,
+        float(problem.gradient @ x),
+        (status, solver_status, iterations, polished),
+        (build_time, solve_time),
+        problem.free_descriptions + flat_notes,
+        loads,
+        output_points,
+    )
+
+
+def linear_equilibrium(
+    prepared: PreparedGeometry,
+    torsor_array: np.ndarray,
+    twists: np.ndarray,
+    gaps: np.ndarray,
+    force_rows: np.ndarray,
+    multipliers: np.ndarray,
+    measured: Residuals,
+    energy: float,
+    outcome: tuple,
+    times: tuple[float, float],
+    free_motions,
+    loads: tuple,
+    output_points: tuple = (),
+) -> Equilibrium:
+    """The :class:`~.result.Equilibrium` of computed answer arrays: joint torsors (joints, 6)
+    [m, rad], body twists (bodies, 6), contact gaps (m,) [m] and stacked force rows [N], the
+    multipliers, the measured residuals, the potential [J], ``outcome`` = (status, solver status,
+    iterations, polished), ``times`` = (build, solve) [s]; contacts and body motions are computed
+    when read (:mod:`.lazy`)."""
+    mechanism = prepared.mechanism
+    contacts = LazySequence(lambda: _contacts(prepared, gaps, force_rows, multipliers))
+    status, solver_status, iterations, polished = outcome
     return Equilibrium(
         formulation="linear",
         torsors=dict(zip(prepared.joint_names, torsor_array)),
         body_motions=LazyMapping(lambda: prepared.body_motions(twists, mechanism.model.names)),
         contacts=contacts,
-        energy=float(problem.gradient @ x),
+        energy=energy,
         status=status,
         solver_status=solver_status,
         iterations=iterations,
         residuals=measured,
-        free_motions=problem.free_descriptions + flat_notes,
-        build_time=build_time,
-        solve_time=solve_time,
+        free_motions=free_motions,
+        build_time=times[0],
+        solve_time=times[1],
         polished=polished,
         body_placements=placements(twists, prepared.configuration.oMi),
         mechanism=mechanism,
         configuration=prepared.configuration,
         body_twists=twists,
         loads=tuple(loads),
+        output_points=output_points,
     )
 
 
-__all__ = ["ACTIVE_RELATIVE_GAP", "assemble_linear"]
+def _contacts(prepared: PreparedGeometry, gaps, force_rows, multipliers) -> tuple[Contact, ...]:
+    """Every contact point with its gap, force and whether it touches (gap within 1e-7 of the
+    play, or 1e-6 while it carries a force)."""
+    bounds = prepared.bounds
+    active = (gaps <= ACTIVE_RELATIVE_GAP * bounds) | (
+        (multipliers > 0.0) & (gaps <= 1e-6 * bounds)
+    )
+    centres = prepared.maps.joint_centre
+    return tuple(
+        Contact(
+            c.joint,
+            c.contact.name,
+            float(gap),
+            float(bound),
+            force,
+            bool(touching),
+            np.array(c.contact.point),  # nominal place, in the joint's clearance frame
+            centres[c.joint].act(np.array(c.contact.point)),
+        )
+        for c, gap, bound, force, touching in zip(
+            prepared.geometry.contacts, gaps, bounds, prepared.contact_forces(force_rows), active
+        )
+    )
+
+
+__all__ = ["ACTIVE_RELATIVE_GAP", "assemble_linear", "linear_equilibrium"]

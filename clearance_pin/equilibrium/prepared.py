@@ -247,7 +247,11 @@ class PreparedGeometry:
         flat = null_space(rows, rtol=1e-9) if rows.size else np.eye(stack.size)
         if not flat.shape[1]:
             return flat, ()
-        descriptions = LazySequence(
+        return flat, self.flat_notes(flat)
+
+    def flat_notes(self, flat: np.ndarray) -> Sequence[str]:
+        """One sentence per flat direction (columns of ``flat``, (r, k)), written when read."""
+        return LazySequence(
             lambda: (
                 "bounded but not loaded (the optimum is not unique; minimum-norm point "
                 "returned): "
@@ -259,7 +263,6 @@ class PreparedGeometry:
                 for i in range(flat.shape[1])
             )
         )
-        return flat, descriptions
 
 
 @dataclass(frozen=True)

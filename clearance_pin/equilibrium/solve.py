@@ -10,12 +10,15 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
 from ..errors import ConditioningWarning, SolverError
 from .block_verify import closed_form_answer
+from .blocks import block_structure
 from .cone_solver import WarmBet, backend_for, solve_cone
+from .fast_path import fast_terms, solve_compiled
 from .linear_answer import assemble_linear
 from .prepared import prepared_geometry
 from .result import Equilibrium
@@ -25,12 +28,38 @@ FINITE_ROTATION = 1e-2  # [rad] a linear answer turning a joint more than this i
 
 
 def solve_linear(
-    mechanism, loads, q=None, tol: float = 1e-12, backend: str = "auto", warm_start: bool = True
+    mechanism,
+    loads,
+    q=None,
+    tol: float = 1e-12,
+    backend: str = "auto",
+    warm_start: bool = True,
+    output_points: tuple = (),
 ) -> Equilibrium:
     """Small-displacement equilibrium (docs/method.md sections 2 and 3) with its residuals
-    measured; raises SolverError (carrying the unverified answer) when they fail."""
+    measured; raises SolverError (carrying the unverified answer) when they fail.
+
+    A mechanism solved before goes the compiled way first (:mod:`.fast_path`); what that does
+    not verify, and every first solve, goes the NumPy way below."""
     started = time.perf_counter()
     prepared = prepared_geometry(mechanism, q)
+    closed_forms = backend == "auto" and (
+        block_structure(prepared.geometry, bool(mechanism.loop_joints)) is not None
+    )
+    fast = None if closed_forms else fast_terms(prepared)
+    if fast is not None:
+        cache = mechanism.cache
+        answer = solve_compiled(
+            fast,
+            loads,
+            cache.warm.get(prepared.signature) if warm_start else None,
+            lambda problem: backend_for(problem, backend, tol, prepared.signature, cache.backends),
+            started,
+            output_points,
+        )
+        if answer is not None:
+            _warn_if_inaccurate(mechanism, answer, prepared.geometry.conditioning)
+            return answer
     problem = prepared.problem(loads)
     count = len(problem.contacts)
     if not (np.isfinite(problem.objective_scale) and np.isfinite(problem.objective).all()):
@@ -54,6 +83,8 @@ def solve_linear(
             time.perf_counter() - started,
             {},
             loads,
+            (),
+            output_points,
         )
         if not indeterminate.ok:
             raise SolverError(
@@ -63,10 +94,10 @@ def solve_linear(
                 indeterminate,
             )
         return indeterminate
-    closed = closed_form_answer(prepared, problem, loads, started) if backend == "auto" else None
+    closed = closed_form_answer(prepared, problem, loads, started) if closed_forms else None
     if closed is not None:  # a tree whose joints are independent blocks (blocks.py), verified
         _warn_if_inaccurate(mechanism, closed, problem.conditioning)
-        return closed
+        return replace(closed, output_points=output_points) if output_points else closed
     cache = mechanism.cache
     built, built_now = backend_for(problem, backend, tol, prepared.signature, cache.backends)
     warm = cache.warm.get(prepared.signature) if warm_start else None
@@ -110,6 +141,7 @@ def solve_linear(
         solution.residuals,
         loads,
         flat_notes,
+        output_points,
     )
     _warn_if_inaccurate(mechanism, equilibrium, problem.conditioning)
     if not equilibrium.ok or not solution.polished:
@@ -124,7 +156,7 @@ def solve_linear(
 
 def _warn_if_inaccurate(mechanism, equilibrium: Equilibrium, conditioning: float) -> None:
     """ConditioningWarning for a finite rotation or a nearly singular loop closure."""
-    largest_rotation = equilibrium.residuals.get("largest_rotation_rad", 0.0)
+    largest_rotation = equilibrium.residuals.largest_rotation_rad or 0.0
     if largest_rotation > FINITE_ROTATION:
         warnings.warn(
             ConditioningWarning(

@@ -1,0 +1,304 @@
+"""The compiled re-solve: a new load on a built mechanism in two compiled calls (:mod:`.kernel`).
+
+A planner re-solves the same configuration thousands of times. Once a mechanism has been solved,
+its next solves go this way: the load's force and torque vectors p map to body wrenches by a
+matrix built once per set of loaded points (:func:`load_map`), the compiled kernel forms the
+objective, runs the verified active-set Newton step from the previous solution (or polishes the
+backend's answer for a cold solve) and computes the answer's arrays; Python builds the answer.
+Whatever the kernel does not verify goes the NumPy way (:mod:`.solve`), which handles every case.
+
+Loading the kernel costs about a second (numba's import and its cache; the first time on a
+machine, compiling: about 25 s on a 2-core machine), and it saves about 0.3 ms per re-solve, so it
+loads only where it pays: after :data:`COMPILE_AFTER` re-solves in one process (a planner), or
+when asked (:func:`load_kernel`, at a planner's start-up); never at import, on a first solve or in
+a script of a few hundred solves. ``CLEARANCE_PIN_COMPILED=0`` switches it off, ``=1`` loads it
+on the first re-solve.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+import numpy as np
+
+from ..model.loads import Gravity, PointForce, Torque
+from .cone_solver import WARM_MAX_SIZE, ConeSolution, acceptance
+from .kkt import ACTIVE_GAP, POLISH_TOL, PROXIMAL, UNLOADED
+from .lazy import LazySequence
+from .linear_answer import linear_equilibrium
+from .prepared import PreparedGeometry
+from .reduction import ROUND_OFF_WORK, UNBOUNDED_FRACTION, loaded_problem
+from .residuals import Residuals
+from .result import Equilibrium
+
+# the NumPy path's constants, in the order of kernel.POLISH ... kernel.ROUND_OFF_WORK
+TOLERANCES = np.array(
+    [POLISH_TOL, PROXIMAL, UNLOADED, ACTIVE_GAP, UNBOUNDED_FRACTION, ROUND_OFF_WORK]
+)
+# active-set rounds and Newton iterations (kkt.active_set_solve's): compiled, a round costs about
+# a microsecond, so a warm start gets as many as the polish of a backend's answer
+ROUNDS, ITERATIONS = 10, 12
+LOAD_MAPS_KEPT = 64  # sets of loaded points kept per configuration
+
+COMPILE_AFTER = 2000  # re-solves of a process after which the kernel's load (about 1 s) pays
+
+_lock = threading.Lock()
+_loaded: dict[str, object] = {}  # "kernel": the module, or None when unavailable
+_resolves = [0]  # re-solves of this process so far (a list: updated in place, no global)
+
+
+def load_kernel() -> float:
+    """Load the compiled kernel now (numba's import, then its compiled functions from numba's
+    on-disk cache, compiling them the first time on a machine) and return the seconds it took;
+    a planner calls this at start-up so that no solve later waits for it. Raises ImportError
+    when numba is not installed; a no-op when ``CLEARANCE_PIN_COMPILED=0``."""
+    if os.environ.get("CLEARANCE_PIN_COMPILED") == "0":
+        return 0.0
+    with _lock:
+        if _loaded.get("kernel") is None:
+            started = time.perf_counter()
+            from . import kernel
+
+            kernel.warm_up()
+            _loaded["kernel"] = kernel
+            _loaded["seconds"] = time.perf_counter() - started
+    return float(_loaded["seconds"])  # type: ignore[arg-type]
+
+
+def kernel_load_time() -> float | None:
+    """Seconds the kernel took to load (numba import and compile or cache load), None if not
+    loaded."""
+    value = _loaded.get("seconds")
+    return None if value is None else float(value)  # type: ignore[arg-type]
+
+
+def compiled_kernel(engage: bool = False):
+    """The kernel module (:mod:`.kernel`) when loaded; with ``engage`` (a re-solve), loaded
+    when the process has re-solved :data:`COMPILE_AFTER` times (``CLEARANCE_PIN_COMPILED=1``:
+    at once); None otherwise, when numba is missing or ``CLEARANCE_PIN_COMPILED=0``."""
+    setting = os.environ.get("CLEARANCE_PIN_COMPILED", "auto")
+    if setting == "0":
+        return None
+    module = _loaded.get("kernel")
+    if module is not None or not engage:
+        return module
+    if "failed" in _loaded:
+        return None
+    _resolves[0] += 1
+    if setting != "1" and _resolves[0] < COMPILE_AFTER:
+        return None
+    try:
+        load_kernel()
+    except ImportError:  # numba not installed: the NumPy path answers
+        _loaded["failed"] = True
+        return None
+    return _loaded["kernel"]
+
+
+class FastTerms:
+    """The arrays of one prepared geometry in the kernel's layout (contiguous float64 / int64),
+    and the load maps of the sets of loaded points seen so far."""
+
+    def __init__(self, prepared: PreparedGeometry):
+        terms, stack = prepared.terms, prepared.geometry.stack
+        self.prepared = prepared
+        self.size = stack.size
+        ends = np.append(stack.starts, stack.matrix.shape[0]).astype(np.int64)
+        self.cone = (
+            np.ascontiguousarray(stack.matrix, dtype=float),
+            np.ascontiguousarray(stack.offset, dtype=float),
+            ends,
+            np.ascontiguousarray(stack.is_norm, dtype=np.bool_),
+        )
+        self.load_rows = np.ascontiguousarray(prepared._load_rows)
+        self.weights = np.ascontiguousarray(terms.size_weights, dtype=float)
+        self.answer = (
+            np.ascontiguousarray(terms.x_from_y),
+            np.ascontiguousarray(prepared._torsor_rows),
+            np.ascontiguousarray(prepared._twist_rows),
+            np.ascontiguousarray(terms.contact_rows),
+            np.ascontiguousarray(terms.contact_offsets, dtype=float),
+            ends,
+            np.ascontiguousarray(terms.bounds, dtype=float),
+            np.ascontiguousarray(terms.contact_of_row, dtype=np.int64),
+            np.ascontiguousarray(terms.norm_force),
+            np.ascontiguousarray(terms.slab_force),
+            np.ascontiguousarray(terms.reactions),
+            np.ascontiguousarray(prepared.geometry.scale),
+        )
+        self.clearance = float(terms.bounds.max(initial=0.0))
+        self.accept = acceptance(prepared.geometry.conditioning)
+        self.load_maps: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+    def load_map(self, loads) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        r"""(p, A, w0): the loads' force and torque vectors stacked (3 k,) [N, N m] and the map
+        :math:`W = A p + w_0` to the body wrenches at the world origin (bodies * 6,) (the fixed
+        loads, gravity, in :math:`w_0`); None for a load of another kind."""
+        key, vectors = [], []
+        for load in loads:
+            kind = type(load)
+            if kind is PointForce:
+                key.append((load.link, load.point.tobytes()))
+                vectors.append(load.force)
+            elif kind is Torque:
+                key.append((load.link, None))
+                vectors.append(load.torque)
+            elif kind is Gravity:
+                key.append((None, load.acceleration.tobytes()))
+            else:
+                return None
+        signature = tuple(key)
+        built = self.load_maps.get(signature)
+        if built is None:
+            built = self._build_load_map(loads)
+            if len(self.load_maps) < LOAD_MAPS_KEPT:
+                self.load_maps[signature] = built
+        params = np.concatenate(vectors) if vectors else np.zeros(0)
+        return params, built[0], built[1]
+
+    def _build_load_map(self, loads) -> tuple[np.ndarray, np.ndarray]:
+        """A column per component of a force or torque (the wrench of that unit load alone;
+        the wrench is linear in it) and w0 the wrench of the gravity loads."""
+        wrenches = self.prepared.wrenches
+        fixed = tuple(load for load in loads if type(load) is Gravity)
+        constant = wrenches(fixed).ravel()
+        columns = []
+        for load in loads:
+            if type(load) is Gravity:
+                continue
+            for axis in np.eye(3):
+                unit = (
+                    PointForce(load.link, force=axis, point=load.point)
+                    if type(load) is PointForce
+                    else Torque(load.link, axis)
+                )
+                columns.append(wrenches((unit,)).ravel())
+        matrix = np.array(columns).T if columns else np.zeros((constant.size, 0))
+        return np.ascontiguousarray(matrix), np.ascontiguousarray(constant)
+
+
+def fast_terms(prepared: PreparedGeometry) -> FastTerms | None:
+    """The :class:`FastTerms` of ``prepared`` (built on first use), None when the kernel is not
+    engaged (:func:`compiled_kernel`), the mechanism has no verified solution yet (a first solve
+    goes the NumPy way) or the problem is larger than a dense Newton step pays for."""
+    built = prepared.__dict__.get("_fast_terms")
+    if built is not None:
+        return built
+    mechanism = prepared.mechanism
+    if not mechanism.cache.warm or prepared.geometry.stack.size > WARM_MAX_SIZE:
+        return None
+    if compiled_kernel(engage=True) is None:
+        return None
+    built = FastTerms(prepared)
+    prepared.__dict__["_fast_terms"] = built
+    return built
+
+
+def solve_compiled(
+    fast: FastTerms,
+    loads,
+    warm: ConeSolution | None,
+    backend_of,
+    started: float,
+    output_points: tuple = (),
+) -> Equilibrium | None:
+    """The verified answer by the kernel, or None (the NumPy path then solves this load).
+
+    Args:
+        warm: the previous solution of this structure (its contact set is tried first), or None.
+        backend_of: ``problem -> (built backend, built now)`` for the cold start.
+    """
+    kernel = compiled_kernel()
+    mapped = fast.load_map(loads)
+    if mapped is None:
+        return None
+    params, load_matrix, load_constant = mapped
+    prepared = fast.prepared
+    n, r = prepared.size_x, fast.size
+    code, objective, sigma, scaled, load_size, share = kernel.load_objective(
+        params, load_matrix, load_constant, fast.load_rows, n, r, fast.weights, TOLERANCES
+    )
+    if code != kernel.SOLVED:
+        return None
+    matrix, offset, ends, is_norm = fast.cone
+    status, iterations, build_time = "warm Newton (compiled)", 0, 0.0
+    solved = None
+    if warm is not None and warm.y.shape == (r,):
+        solved = kernel.verified_optimum(
+            matrix, offset, ends, is_norm, objective, _vector(warm.y), _vector(warm.multipliers),
+            _vector(warm.signs), fast.accept, ROUNDS, ITERATIONS, TOLERANCES,
+        )  # fmt: skip
+    if solved is None or solved[0] != kernel.SOLVED:
+        geometry = prepared.geometry
+        problem = loaded_problem(geometry, scaled / geometry.scale, objective, sigma, load_size)
+        built, built_now = backend_of(problem)
+        y, lam, backend_status, iterations = built.run(problem)
+        status = f"{backend_status} (compiled polish)"
+        build_time = (built.build_time if built_now else 0.0) + getattr(built, "setup_time", 0.0)
+        solved = kernel.verified_optimum(
+            matrix, offset, ends, is_norm, objective, _vector(y), _vector(lam),
+            _vector(geometry.stack.sides(y)), fast.accept, ROUNDS, ITERATIONS, TOLERANCES,
+        )  # fmt: skip
+        if solved[0] != kernel.SOLVED:
+            return None
+    _, y, multipliers, signs, kkt, flat = solved
+    _, torsors, twists, gaps, forces, measured = kernel.answer_arrays(
+        y, multipliers, signs, sigma, scaled, load_size, *fast.answer
+    )
+    stationarity, feasibility, complementarity = kkt.tolist()
+    statics, violation, relative, rotation, energy = measured.tolist()
+    residuals = Residuals(
+        stationarity=stationarity,
+        dual_infeasibility=0.0,
+        statics=statics,
+        max_violation_m=violation,
+        max_violation_rel=relative,
+        clearance_m=fast.clearance,
+        feasibility=feasibility,
+        complementarity=complementarity,
+        closure_conditioning=prepared.geometry.conditioning,
+        largest_rotation_rad=rotation,
+        unblocked_load=share,
+    )
+    if not residuals.ok():
+        return None
+    prepared.mechanism.cache.warm[prepared.signature] = ConeSolution(
+        y, multipliers, signs, status, iterations, True
+    )
+    free_motions = prepared.geometry.free_descriptions
+    if flat.shape[1]:  # written when read, after the motions nothing blocks
+        notes, free = prepared.flat_notes(flat), free_motions
+        free_motions = LazySequence(lambda: (*free, *notes))
+    return linear_equilibrium(
+        prepared,
+        torsors.reshape(-1, 6),
+        twists.reshape(-1, 6),
+        gaps,
+        forces,
+        multipliers,
+        residuals,
+        energy,
+        ("optimal", status, iterations, True),
+        (build_time, time.perf_counter() - started),
+        free_motions,
+        loads,
+        output_points,
+    )
+
+
+def _vector(values) -> np.ndarray:
+    """A contiguous float64 vector (the kernel's one layout: another would compile again)."""
+    return np.ascontiguousarray(values, dtype=np.float64)
+
+
+__all__ = [
+    "COMPILE_AFTER",
+    "FastTerms",
+    "compiled_kernel",
+    "fast_terms",
+    "kernel_load_time",
+    "load_kernel",
+    "solve_compiled",
+]

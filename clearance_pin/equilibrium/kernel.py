@@ -1,0 +1,596 @@
+r"""The verified re-solve compiled (numba): load to objective, active-set Newton, verification,
+the answer's arithmetic.
+
+The same algorithm as the NumPy path (:mod:`.kkt`, :meth:`.prepared.PreparedGeometry.problem`,
+:func:`.linear_answer.assemble_linear`), written as loops over the few unknowns and contacts of a
+reduced problem, so that a re-solve is two compiled calls instead of about a hundred array calls
+from Python. Problem (:mod:`.kkt`), dimensionless:
+
+.. math::  \min f^T y \quad \text{s.t.} \quad \phi_j = \|P_j y + o_j\|^2 - 1 \le 0 \ (\text{ball,
+           disc}), \qquad \phi_j = s_j (p_j^T y + o_j) - 1 \le 0 \ (\text{slab side } s_j)
+
+Newton on :math:`F(y, \lambda_A) = (f + G_A^T \lambda_A, \phi_A(y)) = 0` for the active set A,
+:math:`K = [[\nabla^2 L, G_A^T], [G_A, -\epsilon I]]`. Whatever this kernel cannot decide (a
+singular KKT matrix, redundant contacts, a set that cannot hold the load, an unbounded or
+unloaded problem) it returns undecided and the NumPy path, which handles those, runs instead:
+the kernel only answers what it verifies (multipliers >= 0, every contact feasible, KKT residual
+<= ``accept``), as the NumPy path does.
+
+Imported only when a mechanism is re-solved (numba loads then, not at ``import clearance_pin``);
+compiled once per machine and kept in numba's on-disk cache.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+SOLVED = 0
+UNDECIDED = 1  # the NumPy path decides
+UNBOUNDED = 2  # the load works along a motion nothing blocks (the NumPy path raises)
+NO_WORK = 3  # no load works on any admissible motion (the NumPy path answers "indeterminate")
+
+# indices into the tolerances array (its values are the NumPy path's constants, see fast_path.py)
+POLISH, PROXIMAL, UNLOADED, ACTIVE_GAP, UNBOUNDED_FRACTION, ROUND_OFF_WORK = range(6)
+
+
+@njit
+def _norm(v):
+    total = 0.0
+    for value in v:
+        total += value * value
+    return math.sqrt(total)
+
+
+@njit(cache=True)
+def load_objective(params, load_matrix, load_constant, load_rows, n, r, weights, tolerances):
+    r"""The reduced objective of one load (:meth:`.prepared.PreparedGeometry.problem`).
+
+    Body wrenches at the world origin :math:`W = A p + w_0` (A: the loads' map of their force and
+    torque vectors p [N, N m], :math:`w_0` the fixed loads, gravity), stacked rows
+    :math:`(Z g, Q^T Z g, K^T Z g) = L W`; load size :math:`\sum_b |F_b| c + |M_b| c / l` [J]
+    (``weights`` = (c, c / l)); :math:`\sigma = |Q^T Z g|`, f = Q^T Z g / sigma.
+
+    Returns:
+        (code, f (r,), sigma [J], Z g (n,), load size [J], share along unblocked motions).
+    """
+    wrench = load_constant.copy()
+    for i in range(load_matrix.shape[0]):
+        total = 0.0
+        for k in range(params.size):
+            total += load_matrix[i, k] * params[k]
+        wrench[i] += total
+    size = 0.0
+    for b in range(wrench.size // 6):
+        size += weights[0] * _norm(wrench[6 * b : 6 * b + 3])
+        size += weights[1] * _norm(wrench[6 * b + 3 : 6 * b + 6])
+    stacked = np.zeros(load_rows.shape[0])
+    for i in range(load_rows.shape[0]):
+        total = 0.0
+        for k in range(wrench.size):
+            total += load_rows[i, k] * wrench[k]
+        stacked[i] = total
+    scaled = stacked[:n]
+    reduced = stacked[n : n + r]
+    reference = max(_norm(scaled), size)
+    free_size = _norm(stacked[n + r :])
+    share = free_size / reference if reference > 0.0 else 0.0
+    sigma = _norm(reduced)
+    if reference > 0.0 and free_size > tolerances[UNBOUNDED_FRACTION] * reference:
+        return UNBOUNDED, reduced, sigma, scaled, size, share
+    if sigma <= tolerances[ROUND_OFF_WORK] * reference:
+        return NO_WORK, reduced, sigma, scaled, size, share
+    return SOLVED, reduced / sigma, sigma, scaled, size, share
+
+
+@njit
+def _phi_abs(matrix, offset, starts, is_norm, y):
+    """phi_j(y) of every contact, slabs on either side (|p^T y + o| - 1)."""
+    count = is_norm.size
+    phi = np.empty(count)
+    for j in range(count):
+        total = 0.0
+        for i in range(starts[j], starts[j + 1]):
+            image = offset[i]
+            for c in range(y.size):
+                image += matrix[i, c] * y[c]
+            total += image * image if is_norm[j] else abs(image)
+        phi[j] = total - 1.0
+    return phi
+
+
+@njit
+def _sides(matrix, offset, starts, is_norm, y):
+    """+1 / -1: the side of every slab at y (1 for balls and discs)."""
+    count = is_norm.size
+    signs = np.ones(count)
+    for j in range(count):
+        if not is_norm[j]:
+            i = starts[j]
+            image = offset[i]
+            for c in range(y.size):
+                image += matrix[i, c] * y[c]
+            if image < 0.0:
+                signs[j] = -1.0
+    return signs
+
+
+@njit
+def _gradients(matrix, offset, starts, is_norm, signs, contacts, y):
+    """(phi_j on the sides ``signs``, gradients (k, r)) of the ``contacts``."""
+    r = y.size
+    k = contacts.size
+    values = np.empty(k)
+    gradients = np.zeros((k, r))
+    for a in range(k):
+        j = contacts[a]
+        total = 0.0
+        for i in range(starts[j], starts[j + 1]):
+            image = offset[i]
+            for c in range(r):
+                image += matrix[i, c] * y[c]
+            if is_norm[j]:
+                weight = 2.0 * image
+                total += image * image
+            else:
+                weight = signs[j]
+                total += signs[j] * image
+            for c in range(r):
+                gradients[a, c] += weight * matrix[i, c]
+        values[a] = total - 1.0
+    return values, gradients
+
+
+@njit
+def _hessian(matrix, starts, is_norm, contacts, multipliers, r):
+    r""":math:`\nabla^2 L = \sum_{j \in A,\ norm} 2 \lambda_j P_j^T P_j`, (r, r)."""
+    hessian = np.zeros((r, r))
+    for a in range(contacts.size):
+        j = contacts[a]
+        if not is_norm[j]:
+            continue
+        weight = 2.0 * multipliers[a]
+        for i in range(starts[j], starts[j + 1]):
+            for c in range(r):
+                scaled = weight * matrix[i, c]
+                for d in range(r):
+                    hessian[c, d] += scaled * matrix[i, d]
+    return hessian
+
+
+@njit
+def _lu_solve(matrix, right):
+    """x with matrix x = right by Gaussian elimination with partial pivoting; ok False when a
+    pivot is zero or not finite (the matrix is singular)."""
+    size = right.size
+    a = matrix.copy()
+    x = right.copy()
+    for col in range(size):
+        pivot = col
+        for row in range(col + 1, size):
+            if abs(a[row, col]) > abs(a[pivot, col]):
+                pivot = row
+        if not (abs(a[pivot, col]) > 0.0) or not np.isfinite(a[pivot, col]):
+            return False, x
+        if pivot != col:
+            for c in range(size):
+                a[col, c], a[pivot, c] = a[pivot, c], a[col, c]
+            x[col], x[pivot] = x[pivot], x[col]
+        for row in range(col + 1, size):
+            factor = a[row, col] / a[col, col]
+            if factor != 0.0:
+                for c in range(col + 1, size):
+                    a[row, c] -= factor * a[col, c]
+                x[row] -= factor * x[col]
+    for row in range(size - 1, -1, -1):
+        total = x[row]
+        for c in range(row + 1, size):
+            total -= a[row, c] * x[c]
+        x[row] = total / a[row, row]
+    return True, x
+
+
+@njit
+def _newton(matrix, offset, starts, is_norm, objective, y, lam, signs, contacts, iterations,
+            accept, tolerances):  # fmt: skip
+    """Newton on the KKT system of ``contacts`` (:func:`.kkt.newton` without its projected and
+    least-squares steps); (ok, y, lambda_A, G_A)."""
+    r = y.size
+    k = contacts.size
+    size = r + k
+    y = y.copy()
+    lam = lam.copy()
+    kkt = np.zeros((size, size))
+    residual = np.empty(size)
+    converged = tolerances[POLISH] * tolerances[POLISH]
+    previous = np.inf
+    gradients = np.zeros((k, r))
+    for iteration in range(iterations + 1):
+        values, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
+        for c in range(r):
+            total = objective[c]
+            for a in range(k):
+                total += lam[a] * gradients[a, c]
+            residual[c] = total
+        for a in range(k):
+            residual[r + a] = values[a]
+        size_now = 0.0
+        for value in residual:
+            size_now += value * value
+        if size_now < converged or (previous < 1e-12 and size_now <= accept * accept):
+            return True, y, lam, gradients
+        previous = size_now
+        if iteration == iterations or (iteration >= 6 and size_now > 1e-8):
+            break
+        kkt[:r, :r] = _hessian(matrix, starts, is_norm, contacts, lam, r)
+        for a in range(k):
+            for c in range(r):
+                kkt[c, r + a] = gradients[a, c]
+                kkt[r + a, c] = gradients[a, c]
+            for b in range(k):
+                kkt[r + a, r + b] = -tolerances[PROXIMAL] if a == b else 0.0
+        ok, step = _lu_solve(kkt, residual)
+        step_size = 0.0
+        for value in step:
+            step_size += value * value
+        if ok:
+            ok = step_size < 1e12 and step_size <= 1e20 * size_now
+        if ok:  # a nearly singular K gives a step that does not solve K s = r to round-off
+            error = 0.0
+            for row in range(size):
+                total = -residual[row]
+                for c in range(size):
+                    total += kkt[row, c] * step[c]
+                error += total * total
+            ok = error <= 1e-18 * (1.0 + size_now)
+        if not ok:
+            largest = 0.0
+            for value in residual:
+                largest = max(largest, abs(value))
+            return largest <= accept, y, lam, gradients
+        for c in range(r):
+            y[c] -= step[c]
+        for a in range(k):
+            lam[a] -= step[r + a]
+    largest = 0.0
+    for value in residual:
+        largest = max(largest, abs(value))
+    return largest <= accept, y, lam, gradients
+
+
+@njit
+def _singular_values(matrix):
+    """Singular values and right singular vectors (columns of V) of ``matrix`` (m, n) by one-sided
+    Jacobi rotations (Hestenes): the columns of A V become orthogonal, their norms the singular
+    values (accurate to round-off of the largest, as LAPACK's)."""
+    a = matrix.copy()
+    n = a.shape[1]
+    v = np.eye(n)
+    for _ in range(60):
+        rotated = False
+        for p in range(n - 1):
+            for q in range(p + 1, n):
+                alpha = 0.0
+                beta = 0.0
+                gamma = 0.0
+                for i in range(a.shape[0]):
+                    alpha += a[i, p] * a[i, p]
+                    beta += a[i, q] * a[i, q]
+                    gamma += a[i, p] * a[i, q]
+                if gamma == 0.0 or abs(gamma) <= 1e-15 * math.sqrt(alpha * beta):
+                    continue
+                rotated = True
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = math.copysign(1.0, zeta) / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+                cos = 1.0 / math.sqrt(1.0 + t * t)
+                sin = cos * t
+                for i in range(a.shape[0]):
+                    first = a[i, p]
+                    a[i, p] = cos * first - sin * a[i, q]
+                    a[i, q] = sin * first + cos * a[i, q]
+                for i in range(n):
+                    first = v[i, p]
+                    v[i, p] = cos * first - sin * v[i, q]
+                    v[i, q] = sin * first + cos * v[i, q]
+        if not rotated:
+            break
+    singular = np.empty(n)
+    for c in range(n):
+        singular[c] = _norm(a[:, c])
+    return singular, v, a
+
+
+@njit
+def _minimum_norm_solution(matrix, right):
+    r"""The minimum-norm least-squares solution of ``matrix`` x = ``right`` (numpy.linalg.lstsq's,
+    its rank rule: singular values above eps max(m, n) of the largest count), from the Jacobi
+    SVD :math:`A V = U \Sigma`: :math:`x = \sum_j V_j (U_j^T b) / \sigma_j`."""
+    singular, v, rotated = _singular_values(matrix)
+    top = 0.0
+    for value in singular:
+        top = max(top, value)
+    cutoff = 2.220446049250313e-16 * max(matrix.shape[0], matrix.shape[1]) * top
+    x = np.zeros(matrix.shape[1])
+    for j in range(singular.size):
+        if singular[j] > cutoff:
+            along = 0.0
+            for i in range(matrix.shape[0]):
+                along += rotated[i, j] * right[i]
+            along /= singular[j] * singular[j]  # U_j = (A V)_j / sigma_j
+            for i in range(x.size):
+                x[i] += v[i, j] * along
+    return x
+
+
+@njit
+def _surely_full_rank(rows, rtol):
+    """:func:`.prepared._surely_full_rank`: a Cholesky factor of R^T R - t I exists,
+    t = max(rtol, 1e-6)^2 |R|_F^2 (every squared singular value above t)."""
+    n = rows.shape[1]
+    gram = np.zeros((n, n))  # loops, not rows.T @ rows: numba's matmul needs SciPy's BLAS
+    for c in range(n):
+        for d in range(n):
+            total = 0.0
+            for i in range(rows.shape[0]):
+                total += rows[i, c] * rows[i, d]
+            gram[c, d] = total
+    ratio = max(rtol, 1e-6)
+    trace = 0.0
+    for c in range(n):
+        trace += gram[c, c]
+    shift = ratio * ratio * trace
+    for c in range(n):
+        gram[c, c] -= shift
+    for c in range(n):  # Cholesky, lower triangle in place
+        total = gram[c, c]
+        for k in range(c):
+            total -= gram[c, k] * gram[c, k]
+        if not total > 0.0:
+            return False
+        gram[c, c] = math.sqrt(total)
+        for row in range(c + 1, n):
+            value = gram[row, c]
+            for k in range(c):
+                value -= gram[row, k] * gram[c, k]
+            gram[row, c] = value / gram[c, c]
+    return True
+
+
+@njit
+def _flat_directions(matrix, offset, starts, is_norm, y, multipliers, signs, tolerances):
+    """:meth:`.prepared.PreparedGeometry.flat_directions`: an orthonormal basis (r, k) of the
+    directions along which the optimum is not unique (G_loaded d = 0 and Hessian d = 0, to 1e-9
+    of the largest)."""
+    r = y.size
+    count = multipliers.size
+    largest = 0.0
+    for value in multipliers:
+        largest = max(largest, value)
+    loaded_count = 0
+    for value in multipliers:
+        if value > tolerances[UNLOADED] * largest:
+            loaded_count += 1
+    loaded = np.empty(loaded_count, dtype=np.int64)
+    at = 0
+    for j in range(count):
+        if multipliers[j] > tolerances[UNLOADED] * largest:
+            loaded[at] = j
+            at += 1
+    _, gradients = _gradients(matrix, offset, starts, is_norm, signs, loaded, y)
+    every = np.arange(count)
+    rows = np.empty((loaded_count + r, r))
+    rows[:loaded_count] = gradients
+    rows[loaded_count:] = _hessian(matrix, starts, is_norm, every, multipliers, r)
+    scale = 1.0
+    for value in rows.ravel():
+        scale = max(scale, abs(value))
+    rows /= scale
+    if _surely_full_rank(rows, 1e-9):
+        return np.zeros((r, 0))
+    singular, v, _ = _singular_values(rows)
+    top = 0.0
+    for value in singular:
+        top = max(top, value)
+    flat = 0
+    for value in singular:
+        if not (top > 0.0 and value > 1e-9 * top):
+            flat += 1
+    out = np.empty((r, flat))
+    at = 0
+    for c in range(r):
+        if not (top > 0.0 and singular[c] > 1e-9 * top):
+            out[:, at] = v[:, c]
+            at += 1
+    return out
+
+
+@njit(cache=True)
+def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs0, accept,
+                     rounds, iterations, tolerances):  # fmt: skip
+    """The verified active-set method of :func:`.kkt.active_set_solve` from a guess
+    (y0, lambda0, slab sides), then the flat directions, the minimum-norm point along them.
+
+    Returns:
+        (code, y, multipliers (m,), signs (m,), KKT residuals (stationarity, feasibility,
+        complementarity), flat directions (r, k)).
+    """
+    r = y0.size
+    count = is_norm.size
+    signs = signs0.copy()
+    phi = _phi_abs(matrix, offset, starts, is_norm, y0)
+    largest = 1.0
+    for value in lam0:
+        largest = max(largest, value)
+    active = np.zeros(count, dtype=np.bool_)
+    for j in range(count):
+        active[j] = phi[j] > -tolerances[ACTIVE_GAP] or lam0[j] > 1e-9 * largest
+    lam = lam0.copy()
+    y = y0.copy()
+    residuals = np.zeros(3)
+    nothing = np.zeros((r, 0))
+    for _ in range(rounds):
+        contacts = np.flatnonzero(active)
+        if contacts.size == 0:
+            break
+        ok, y_new, lam_active, gradients = _newton(
+            matrix, offset, starts, is_norm, objective, y, lam[contacts], signs, contacts,
+            iterations, accept, tolerances,
+        )  # fmt: skip
+        if not ok:
+            break
+        released = False
+        for a in range(contacts.size):
+            if lam_active[a] < -1e-12:
+                active[contacts[a]] = False
+                released = True
+        if released:
+            continue
+        phi_new = _phi_abs(matrix, offset, starts, is_norm, y_new)
+        bar = max(1e-13, accept)
+        violated = False
+        for j in range(count):
+            if phi_new[j] > bar:
+                active[j] = True
+                violated = True
+        if violated:
+            signs = _sides(matrix, offset, starts, is_norm, y_new)
+            continue
+        # the forces are unique when the active gradients are independent; otherwise the
+        # minimum-norm set balancing the load, when no force of it pulls (kkt's
+        # _minimum_norm_forces: statically indeterminate contacts share the load evenly)
+        forces = lam_active
+        independent = contacts.size <= r
+        if independent:
+            singular, _, _ = _singular_values(gradients.T.copy())
+            low, high = np.inf, 0.0
+            for value in singular:
+                low = min(low, value)
+                high = max(high, value)
+            independent = low > 1e-10 * high
+        if not independent:
+            least = _minimum_norm_solution(gradients.T.copy(), -objective)
+            if least.min() >= -1e-14:
+                forces = least
+        multipliers = np.zeros(count)
+        for a in range(contacts.size):
+            multipliers[contacts[a]] = max(forces[a], 0.0)
+        stationarity = 0.0
+        for c in range(r):
+            total = objective[c]
+            for a in range(contacts.size):
+                total += multipliers[contacts[a]] * gradients[a, c]
+            stationarity = max(stationarity, abs(total))
+        feasibility = 0.0
+        complementarity = 0.0
+        for j in range(count):
+            feasibility = max(feasibility, phi_new[j])
+            complementarity = max(complementarity, abs(multipliers[j] * phi_new[j]))
+        residuals[0], residuals[1], residuals[2] = stationarity, feasibility, complementarity
+        if max(stationarity, feasibility, complementarity) > accept:
+            break
+        flat = _flat_directions(matrix, offset, starts, is_norm, y_new, multipliers, signs,
+                                tolerances)  # fmt: skip
+        if flat.shape[1]:
+            centred = y_new.copy()
+            for c in range(flat.shape[1]):
+                along = 0.0
+                for d in range(r):
+                    along += flat[d, c] * y_new[d]
+                for d in range(r):
+                    centred[d] -= flat[d, c] * along
+            phi_centred = _phi_abs(matrix, offset, starts, is_norm, centred)
+            worst = -np.inf
+            for value in phi_centred:
+                worst = max(worst, value)
+            if worst <= 1e-13:
+                y_new = centred
+        return SOLVED, y_new, multipliers, signs, residuals, flat
+    return UNDECIDED, y, lam, signs, residuals, nothing
+
+
+@njit
+def _product(matrix, vector):
+    out = np.empty(matrix.shape[0])
+    for i in range(matrix.shape[0]):
+        total = 0.0
+        for k in range(vector.size):
+            total += matrix[i, k] * vector[k]
+        out[i] = total
+    return out
+
+
+@njit(cache=True)
+def answer_arrays(y, multipliers, signs, sigma, scaled_gradient, load_size, x_from_y, torsor_rows,
+                  twist_rows, contact_rows, contact_offsets, contact_starts, bounds, row_contact,
+                  norm_force, slab_force, reactions, scale):  # fmt: skip
+    r"""The answer's arrays (:func:`.linear_answer.assemble_linear`): x = Z Q y, joint torsors,
+    body twists, contact gaps [m] and force rows [N]
+    (:math:`f = -2\sigma\lambda_j (o_j + S_j x) / c_j^2`, slab :math:`-\sigma\lambda_j s_j / c_j`),
+    and (statics residual, largest penetration [m], over the play, largest rotation [rad],
+    potential g^T x [J])."""
+    x = _product(x_from_y, y)
+    torsors = _product(torsor_rows, x)
+    twists = _product(twist_rows, x)
+    image = _product(contact_rows, x) + contact_offsets
+    count = bounds.size
+    gaps = np.empty(count)
+    for j in range(count):
+        total = 0.0
+        for i in range(contact_starts[j], contact_starts[j + 1]):
+            total += image[i] * image[i]
+        gaps[j] = bounds[j] - math.sqrt(total)
+    forces = np.empty(image.size)
+    for i in range(image.size):
+        j = row_contact[i]
+        forces[i] = sigma * multipliers[j] * (norm_force[i] * image[i] + slab_force[i] * signs[j])
+    n = x.size
+    imbalance = np.empty(n)
+    reference = 0.0
+    energy = 0.0
+    for c in range(n):
+        total = scaled_gradient[c] / scale[c]
+        energy += total * x[c]
+        for i in range(image.size):
+            total -= forces[i] * contact_rows[i, c]
+        imbalance[c] = scale[c] * total
+        reference += scaled_gradient[c] * scaled_gradient[c]
+    for k in range(reactions.shape[1]):
+        along = 0.0
+        for c in range(n):
+            along += imbalance[c] * reactions[c, k]
+        for c in range(n):
+            imbalance[c] -= along * reactions[c, k]
+    reference = max(math.sqrt(reference), load_size)
+    statics = _norm(imbalance) / (reference if reference > 0.0 else 1.0)
+    violation = 0.0
+    relative = 0.0
+    for j in range(count):
+        violation = max(violation, -gaps[j])
+        relative = max(relative, -gaps[j] / bounds[j])
+    rotation = 0.0
+    for joint in range(torsors.size // 6):
+        rotation = max(rotation, _norm(torsors[6 * joint + 3 : 6 * joint + 6]))
+    measured = np.array([statics, violation, relative, rotation, energy])
+    return x, torsors, twists, gaps, forces, measured
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every entry point on a tiny problem: one disc contact
+    of one unknown pair, so that no solve later pays for it."""
+    tolerances = np.array([1e-14, 1e-12, 1e-9, 1e-6, 1e-9, 1e-12])
+    matrix, offset = np.eye(2), np.zeros(2)
+    starts, is_norm = np.array([0, 2], dtype=np.int64), np.ones(1, dtype=np.bool_)
+    load_objective(
+        np.ones(3), np.ones((12, 3)), np.zeros(12), np.ones((4, 12)), 2, 2, np.ones(2), tolerances
+    )
+    solved = verified_optimum(
+        matrix, offset, starts, is_norm, np.array([1.0, 0.0]), np.array([-1.0, 0.0]),
+        np.array([0.5]), np.ones(1), 1e-12, 2, 6, tolerances,
+    )  # fmt: skip
+    answer_arrays(
+        solved[1], solved[2], solved[3], 1.0, np.ones(2), 1.0, np.eye(2), np.ones((6, 2)),
+        np.ones((12, 2)), np.eye(2), np.zeros(2), starts, np.ones(1), np.zeros(2, dtype=np.int64),
+        np.ones(2), np.zeros(2), np.zeros((2, 0)), np.ones(2),
+    )  # fmt: skip

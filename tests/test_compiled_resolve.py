@@ -1,0 +1,221 @@
+"""The compiled re-solve (clearance_pin/equilibrium/kernel.py, fast_path.py) against the NumPy path
+and against the independent oracle.
+
+- Its linear-algebra pieces against NumPy / LAPACK (independent implementations).
+- Every published case of [Y] section 6 and every bundled model with loops, over perturbed loads:
+  the compiled answers equal the NumPy path's to 1e-11 of the play (the same algorithm written
+  twice: a consistency check, not an independent one), carry passing residuals, and most of
+  them were found by the kernel (not handed back).
+- Random mechanisms against tests/oracle.py (cvxpy + Clarabel on body twists: independent), the
+  second solve of each mechanism going the compiled way.
+- Loads the kernel does not decide (unbounded, no work) end as on the NumPy path.
+- ``import clearance_pin`` and a first solve do not load numba.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from mechanism_strategies import mechanisms
+from oracle import Oracle, bounded_loads, judge
+
+import clearance_pin
+from clearance_pin import PointForce, Torque, UnboundedLoadError
+from clearance_pin.equilibrium import fast_path
+
+pytest.importorskip("numba")
+from clearance_pin.equilibrium import kernel
+
+ROOT = Path(__file__).resolve().parents[1]
+RNG_SEED = 20261201
+# two writings of one algorithm differ by round-off in a different order, amplified by the loop
+# closure's conditioning: up to 2e-12 of the play on four_bar, as between the NumPy path's own
+# backends (benchmarks/README.md, "Results")
+AGREEMENT = 1e-11
+
+
+@pytest.fixture
+def compiled(monkeypatch):
+    """Every re-solve goes the compiled way first (the kernel loads on the first re-solve)."""
+    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "1")
+    fast_path.load_kernel()
+
+
+def _younes():
+    spec = importlib.util.spec_from_file_location("younes2013", ROOT / "validation/younes2013.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _mechanisms():
+    younes = _younes()
+    table = tomllib.loads((ROOT / "validation/younes2013_cases.toml").read_text())["case"]
+    for case in table:
+        yield case["id"], lambda case=case: younes.build(case)
+    for name in ("four_bar", "slider_crank", "younes_sphere_cylinder", "younes_two_cylinders"):
+        yield name, lambda name=name: clearance_pin.load(str(ROOT / "models" / f"{name}.urdf"))
+
+
+def _perturbed(loads, rng, count):
+    """``count`` loads near ``loads``: each force or torque vector v gets 0.3 |v| times a normal
+    vector (the contact set may change; a load may turn unbounded: both paths must say so)."""
+    out = []
+    for _ in range(count):
+        moved = []
+        for load in loads:
+            if isinstance(load, PointForce):
+                size = np.linalg.norm(load.force)
+                force = load.force + 0.3 * size * rng.standard_normal(3)
+                moved.append(PointForce(load.link, force=force, point=load.point))
+            elif isinstance(load, Torque):
+                size = np.linalg.norm(load.torque)
+                moved.append(Torque(load.link, load.torque + 0.3 * size * rng.standard_normal(3)))
+            else:
+                moved.append(load)
+        out.append(tuple(moved))
+    return out
+
+
+def _outcome(mechanism, loads):
+    try:
+        return mechanism.solve(loads)
+    except UnboundedLoadError:
+        return "unbounded"
+
+
+@pytest.mark.parametrize("name, build", list(_mechanisms()), ids=[n for n, _ in _mechanisms()])
+def test_compiled_answers_equal_the_numpy_path(name, build, monkeypatch):
+    """Paper cases and bundled loop models: over 40 perturbed loads solved in sequence, the
+    compiled re-solve gives the NumPy path's answer to 1e-11 of the play."""
+    rng = np.random.default_rng(RNG_SEED)
+    reference_mechanism, compiled_mechanism = build(), build()
+    base = tuple(
+        load for load in reference_mechanism.loads if isinstance(load, (PointForce, Torque))
+    )
+    loads = _perturbed(base, rng, 40)
+    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "0")
+    references = [_outcome(reference_mechanism, load) for load in loads]
+    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "1")
+    fast_path.load_kernel()
+    compiled_mechanism.solve(base)
+    answers = [_outcome(compiled_mechanism, load) for load in loads]
+    play = max(c.clearance for c in references[0].contacts) if references[0] != "unbounded" else 1
+    length = compiled_mechanism.length_scale()
+    by_kernel = 0
+    for reference, answer in zip(references, answers):
+        if isinstance(reference, str) or isinstance(answer, str):
+            assert reference == answer
+            continue
+        assert answer.ok and answer.polished
+        by_kernel += "(compiled" in answer.solver_status
+        for joint, torsor in reference.torsors.items():
+            difference = answer.torsors[joint] - torsor
+            assert np.abs(difference[:3]).max() <= AGREEMENT * play, (name, joint)
+            assert np.abs(difference[3:]).max() * length <= AGREEMENT * play, (name, joint)
+        assert [c.active for c in answer.contacts] == [c.active for c in reference.contacts]
+        assert answer.residuals["stationarity"] <= 1e-12
+        assert answer.residuals["statics"] <= 1e-9
+    solved = sum(not isinstance(r, str) for r in references)
+    assert by_kernel >= 0.8 * solved, f"{name}: only {by_kernel} of {solved} by the kernel"
+
+
+@settings(
+    max_examples=20,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+@given(spec=mechanisms())
+def test_compiled_resolve_agrees_with_the_oracle(spec):
+    """Random mechanisms: after a first solve of another load, the compiled re-solve of the
+    model's load agrees with the independent oracle (or both diagnose the load alike)."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("CLEARANCE_PIN_COMPILED", "1")
+        fast_path.load_kernel()
+        mechanism = clearance_pin.loads(spec.urdf(), source="<random mechanism>")
+        loads = bounded_loads(Oracle(mechanism), mechanism.resolve_loads(None, None))
+        turned = _perturbed(loads, np.random.default_rng(RNG_SEED), 1)[0]
+        try:
+            mechanism.solve(turned)
+        except clearance_pin.ClearancePinError:
+            pass  # the first solve only leaves a previous solution (or none) behind
+        verdict = judge(mechanism, loads)
+    assert verdict.kind in {
+        "agree",
+        "agree-flat",
+        "agree-energy",
+        "agree-certified",
+        "unbounded",
+        "indeterminate",
+        "diagnosed",
+        "oracle-failed",
+        "oracle-inaccurate",
+        "ambiguous-free-motion",
+        "weakly-bounded-unbounded",
+        "no-work-unbounded",
+        "no-work-moved",
+        "ambiguous-closure",
+        "known-below-unbounded-threshold",
+    }, f"{verdict.kind}: {verdict.errors}\n{verdict.detail}\n{spec.urdf()}"
+
+
+def test_undecided_loads_end_as_on_the_numpy_path(compiled):
+    """A load along the shaft's free spin is unbounded and a zero load does no work: the kernel
+    hands both back, and the NumPy path raises / answers "indeterminate" as without it."""
+    mechanism = clearance_pin.load(str(ROOT / "models/younes_two_cylinders.urdf"))
+    mechanism.solve()
+    link = next(load.link for load in mechanism.loads if isinstance(load, PointForce))
+    with pytest.raises(UnboundedLoadError):
+        mechanism.solve([Torque(link, (5.0, 0.0, 0.0))])
+    assert mechanism.solve([Torque(link, (0.0, 0.0, 0.0))]).status == "indeterminate"
+
+
+def test_lu_solve_against_lapack():
+    rng = np.random.default_rng(1)
+    for size in (1, 3, 8, 20):
+        matrix = rng.standard_normal((size, size))
+        right = rng.standard_normal(size)
+        ok, solution = kernel._lu_solve(matrix, right)
+        assert ok
+        assert np.allclose(solution, np.linalg.solve(matrix, right), rtol=1e-10, atol=1e-12)
+    assert not kernel._lu_solve(np.zeros((3, 3)), np.ones(3))[0]
+
+
+def test_singular_values_and_minimum_norm_solution_against_lapack():
+    rng = np.random.default_rng(2)
+    for rows, columns, rank in ((6, 4, 4), (4, 6, 4), (8, 5, 2), (3, 3, 1)):
+        matrix = rng.standard_normal((rows, rank)) @ rng.standard_normal((rank, columns))
+        singular, v, _ = kernel._singular_values(matrix)
+        expected = np.linalg.svd(matrix, compute_uv=False)
+        assert np.allclose(np.sort(singular)[::-1][: expected.size], expected, atol=1e-12)
+        assert np.allclose(v.T @ v, np.eye(columns), atol=1e-13)
+        right = rng.standard_normal(rows)
+        least = kernel._minimum_norm_solution(matrix, right)
+        assert np.allclose(least, np.linalg.lstsq(matrix, right, rcond=None)[0], atol=1e-10)
+
+
+def test_import_and_a_first_solve_do_not_load_numba():
+    script = (
+        "import sys, clearance_pin\n"
+        "assert 'numba' not in sys.modules\n"
+        f"m = clearance_pin.load({str(ROOT / 'models/four_bar.urdf')!r})\n"
+        "m.solve(); m.solve()\n"
+        "assert 'numba' not in sys.modules, 'numba loaded by a script of two solves'\n"
+    )
+    environment = {
+        k: v for k, v in __import__("os").environ.items() if k != "CLEARANCE_PIN_COMPILED"
+    }
+    subprocess.run([sys.executable, "-c", script], check=True, env=environment, timeout=120)
+
+
+def test_load_kernel_reports_its_time(compiled):
+    assert fast_path.kernel_load_time() is not None and fast_path.kernel_load_time() >= 0.0
+    assert fast_path.load_kernel() == fast_path.kernel_load_time()
