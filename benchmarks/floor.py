@@ -35,6 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg.lapack import dgesv
 
+from clearance_pin.equilibrium import fast_path
+
 ACCEPT = 1e-12  # the library's ACCEPT_KKT: verified KKT residual
 CONVERGED = 1e-15  # Newton stops when the largest residual component is below this
 FEASIBLE = 1e-13  # contact values phi above this are violations
@@ -217,6 +219,31 @@ def nominal_solution(problem, clarabel_peer):
     return None
 
 
+def compiled_floor(prepared, stack, known: ActiveSet, problems, y0, lam0) -> dict:
+    """``compiled_s``: the library's compiled kernel alone (``kernel.verified_optimum``: the
+    active-set Newton step, its verification, the flat-direction test) from the known set's
+    solution, median over ``problems``; empty when the kernel is not loaded."""
+    kernel = fast_path.compiled_kernel()
+    if kernel is None:
+        return {}
+    fast = fast_path.FastTerms(prepared)
+    matrix, offset, ends, is_norm = fast.cone
+    multipliers = np.zeros(stack.count)
+    multipliers[known.active] = lam0
+    signs = np.ascontiguousarray(stack.sides(y0), dtype=float)
+    start = np.ascontiguousarray(y0, dtype=float)
+    times, solved = [], 0
+    for problem in problems:
+        t0 = time.perf_counter()
+        answer = kernel.verified_optimum(
+            matrix, offset, ends, is_norm, problem.objective, start, multipliers, signs,
+            fast.accept, fast_path.ROUNDS, fast_path.ITERATIONS, fast_path.TOLERANCES,
+        )  # fmt: skip
+        times.append(time.perf_counter() - t0)
+        solved += answer[0] == kernel.SOLVED
+    return {"compiled_s": float(np.median(times)), "compiled_verified": int(solved)}
+
+
 def median_time(function, repeats: int) -> float:
     """Median wall time of ``function()`` over ``repeats`` calls [s]."""
     times = []
@@ -323,6 +350,7 @@ def floor_case(
     if not kept:
         out["note"] = "Newton from the seed verified no perturbed load"
         return out
+    out.update(compiled_floor(prepared, stack, known, [problems[i] for i in kept], y0, lam0))
     objectives = np.array([problems[i].objective for i in kept])
     tiled = np.resize(objectives, (max(rows, len(kept)), objectives.shape[1]))
     y, _, batch_iterations, verified = newton_batch(stack, known, tiled, y0, lam0)

@@ -64,10 +64,12 @@ sys.path.insert(0, str(HERE))
 
 import arms
 import floor
+import kernel_cost
 import peers
 
 import clearance_pin
 from clearance_pin import ClearancePinError, PointForce, Torque
+from clearance_pin.equilibrium import fast_path
 
 MM = 1e3
 
@@ -1113,6 +1115,38 @@ def print_markdown(ranges: dict, cases: dict, floors: dict, arm_results: dict) -
             )
 
 
+def print_kernel(kernel: dict, floors: dict, cases: dict) -> None:
+    """The compiled kernel's one-time costs and, per paper case, the kernel alone on the known
+    active set beside the whole re-solve and prebuilt Clarabel (Markdown)."""
+    if not kernel.get("used"):
+        print("\nThe compiled kernel was off (--no-kernel).")
+        return
+    if "fresh_s" not in kernel:
+        print(f"\nCompiled kernel loaded in {kernel['load_s']:.2f} s (costs not measured: --quick)")
+        return
+    print(
+        f"\nCompiled kernel: load with an empty numba cache (compiling) {kernel['fresh_s']:.1f} s, "
+        f"with the cache warm {kernel['warm_s']:.2f} s; a new process's import "
+        f"{kernel['import_s']:.2f} s, first solve (four_bar) {1e3 * kernel['first_solve_s']:.1f} ms,"
+        f" numba loaded by then: {kernel['numba_loaded']}\n"
+    )
+    print("| case | re-solve [us] | kernel alone [us] | prebuilt Clarabel default / 1e-12 [us] |")
+    print("|---|---|---|---|")
+    for case_id, entry in floors.items():
+        methods = cases.get(case_id, {})
+
+        def us(name, methods=methods):
+            value = methods.get(name, {}).get("median_s")
+            return f"{1e6 * value:.0f}" if value is not None else "-"
+
+        alone = entry.get("compiled_s")
+        print(
+            f"| {case_id} | {us('clearance_pin_resolve')} | "
+            f"{'-' if alone is None else f'{1e6 * alone:.1f}'} | "
+            f"{us('clarabel_prebuilt_default')} / {us('clarabel_prebuilt')} |"
+        )
+
+
 def summary(cases: dict, tolerances: Tolerances) -> dict:
     """Across cases: shifted geometric mean of the median times per method, and worst errors."""
     methods = sorted({m for c in cases.values() for m in c})
@@ -1345,6 +1379,12 @@ def main(argv: list[str] | None = None) -> int:
         "--arm-loads", type=int, nargs="+", help="sizes of the arms' tool-load runs (override)"
     )
     parser.add_argument("--no-floor", action="store_true", help="skip the floor (floor.py)")
+    parser.add_argument(
+        "--no-kernel",
+        action="store_true",
+        help="time the NumPy path only (CLEARANCE_PIN_COMPILED=0; default: the compiled kernel is "
+        "loaded first, as a planner does, and its one-time costs are measured)",
+    )
     args = parser.parse_args(argv)
     if args.replot:
         document = json.loads(args.replot.read_text())
@@ -1377,6 +1417,13 @@ def main(argv: list[str] | None = None) -> int:
     started = time.perf_counter()
     load_start = os.getloadavg()
     git_state = _git_state()  # at the start: what is imported is what is measured
+    if args.no_kernel:
+        os.environ["CLEARANCE_PIN_COMPILED"] = "0"
+        kernel = {"used": False}
+    else:  # a quick run loads the kernel (as a planner does) without measuring its costs
+        costs = {} if args.quick else kernel_cost.kernel_costs()
+        kernel = {"used": True, **costs, "load_s": fast_path.load_kernel()}
+        print(f"kernel: {kernel}", flush=True)
     cases = load_cases(args.cases)
     if not cases:
         parser.error(f"no case matches {args.cases}")
@@ -1418,6 +1465,7 @@ def main(argv: list[str] | None = None) -> int:
     totals = summary(results, tolerances)
     print_tables(results, case_ratios, totals, refs_info)
     print_markdown(ranges, results, floors, arm_results)
+    print_kernel(kernel, floors, results)
     document = {
         "cases": results,
         "ratios": case_ratios,
@@ -1426,6 +1474,7 @@ def main(argv: list[str] | None = None) -> int:
         "case_info": info,
         "floor": floors,
         "arms": arm_results,
+        "kernel": kernel,
         "settings": asdict(settings),
         "tolerances": asdict(tolerances),
         "machine": {
