@@ -44,6 +44,17 @@ def _norm(v):
     return math.sqrt(total)
 
 
+@njit
+def _product(matrix, vector):
+    out = np.empty(matrix.shape[0])
+    for i in range(matrix.shape[0]):
+        total = 0.0
+        for k in range(vector.size):
+            total += matrix[i, k] * vector[k]
+        out[i] = total
+    return out
+
+
 @njit(cache=True)
 def load_objective(params, load_matrix, load_constant, load_rows, n, r, weights, tolerances):
     r"""The reduced objective of one load (:meth:`.prepared.PreparedGeometry.problem`).
@@ -56,22 +67,12 @@ def load_objective(params, load_matrix, load_constant, load_rows, n, r, weights,
     Returns:
         (code, f (r,), sigma [J], Z g (n,), load size [J], share along unblocked motions).
     """
-    wrench = load_constant.copy()
-    for i in range(load_matrix.shape[0]):
-        total = 0.0
-        for k in range(params.size):
-            total += load_matrix[i, k] * params[k]
-        wrench[i] += total
+    wrench = _product(load_matrix, params) + load_constant
     size = 0.0
     for b in range(wrench.size // 6):
         size += weights[0] * _norm(wrench[6 * b : 6 * b + 3])
         size += weights[1] * _norm(wrench[6 * b + 3 : 6 * b + 6])
-    stacked = np.zeros(load_rows.shape[0])
-    for i in range(load_rows.shape[0]):
-        total = 0.0
-        for k in range(wrench.size):
-            total += load_rows[i, k] * wrench[k]
-        stacked[i] = total
+    stacked = _product(load_rows, wrench)
     scaled = stacked[:n]
     reduced = stacked[n : n + r]
     reference = max(_norm(scaled), size)
@@ -508,17 +509,6 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
                 y_new = centred
         return SOLVED, y_new, multipliers, signs, residuals, flat
     return UNDECIDED, y, lam, signs, residuals, nothing
-
-
-@njit
-def _product(matrix, vector):
-    out = np.empty(matrix.shape[0])
-    for i in range(matrix.shape[0]):
-        total = 0.0
-        for k in range(vector.size):
-            total += matrix[i, k] * vector[k]
-        out[i] = total
-    return out
 
 
 @njit(cache=True)
