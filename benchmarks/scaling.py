@@ -50,8 +50,6 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 
-from work_precision import _git_state, perturbed_loads
-
 import clearance_pin
 
 LINK = 0.1  # [m]
@@ -224,6 +222,8 @@ def _median_time(call, count: int, settings: ScalingSettings) -> tuple[float, fl
 
 def measure(family: str, size: int, settings: ScalingSettings) -> dict:
     """Every measurement of one generated mechanism."""
+    from work_precision import perturbed_loads  # here: the generators import without it
+
     generator, per_unit = FAMILIES[family]
     text = generator(size)
     gc.collect()
@@ -283,6 +283,7 @@ def measure(family: str, size: int, settings: ScalingSettings) -> dict:
         "batch_tracemalloc_peak_bytes": int(batch_peak),
         "rss_growth_bytes": int(rss_growth),
         "solver_status": first.solver_status,
+        "cold_path": mechanism.solve(loads[0], warm_start=False).solver_status.split(":")[0],
         "polished": first.polished,
     }
     if joints <= settings.exact_max:
@@ -377,6 +378,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sizes", type=int, nargs="*", help="joints (ladder: rounded to loops)")
     parser.add_argument("--families", nargs="*", choices=sorted(FAMILIES), default=None)
     parser.add_argument("--exact-max", type=int, help="largest joint count for the exact model")
+    parser.add_argument(
+        "--fit-from",
+        type=int,
+        help="smallest joint count in the fitted exponents (default 10, --quick 2)",
+    )
     parser.add_argument("--replot", type=Path, help="only draw the PNG from this JSON file")
     args = parser.parse_args(argv)
     settings = QUICK if args.quick else ScalingSettings()
@@ -387,6 +393,10 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.exact_max is not None:
         settings = ScalingSettings(**{**asdict(settings), "exact_max": args.exact_max})
+    if args.fit_from is not None:
+        settings = ScalingSettings(**{**asdict(settings), "fit_from": args.fit_from})
+    from work_precision import _git_state
+
     sizes = args.sizes or (QUICK_SIZES if args.quick else SIZES)
     warnings.simplefilter("ignore", clearance_pin.ConditioningWarning)
     started = time.perf_counter()
@@ -412,7 +422,8 @@ def main(argv: list[str] | None = None) -> int:
                     f"{point['exact_build_s']:.2f} s)"
                     if "exact_solve_s" in point
                     else ""
-                ),
+                )
+                + f"  [{point['cold_path']}]",
                 flush=True,
             )
         keys = (

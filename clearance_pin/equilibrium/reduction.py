@@ -12,7 +12,11 @@ Reduction, in the scaled unknowns :math:`z = Z^{-1} x` (Z: clearance-sized scale
 2. :math:`K` spans the motions that no contact sees (:math:`S_j Z N_E k = 0` for all j): free
    motions such as the spin of a shaft. A load with a component along K has no equilibrium
    (the potential is unbounded below); a load orthogonal to K leaves K indeterminate, and we
-   return the minimum-norm optimum by restricting to the complement of K;
+   return the minimum-norm optimum by restricting to the complement of K. The rows
+   :math:`S_j Z N_E` are ranked block by block (columns joined by the rows that read them: a
+   tree's groups of contacts on one joint's unknowns), so a long chain costs a few small SVDs
+   per joint instead of one dense SVD over all unknowns; a block of full rank keeps its
+   coordinates, and a tree without free motions keeps :math:`Q = I` (:func:`_split_blocks`);
 3. :math:`x = Z Q y` with :math:`Q = N_E K^\perp` orthonormal, and each contact becomes
    :math:`\|P_j y + o_j\| \le 1` with :math:`P_j = S_j Z Q / c_j` and :math:`o_j` the nominal
    eccentricity of a misaligned loop joint over its play (zero for an aligned one,
@@ -158,6 +162,124 @@ def _split_rows(rows: np.ndarray, dimension: int, rtol: float = 1e-10):
     return spaces.null, spaces.row, float(kept[-1] / singular[0])
 
 
+def _split_blocks(rows: np.ndarray, rtol: float = 1e-10):
+    r""":func:`_split_rows` of ``rows`` (k, d) block by block, or None when they form one block
+    over all d columns.
+
+    Columns joined by a row with nonzero entries in both form a block (a tree's contact rows
+    read only their own joint's unknowns: one block per group of contacts sharing unknowns, a
+    few columns each). The singular values of ``rows`` are those of its blocks, so the rank rule
+    of :func:`_split_rows` (above ``rtol`` of the largest of all and above :data:`RANK_ATOL`)
+    and the conditioning are decided on the blocks' SVDs (one batched SVD per block shape), at a
+    cost linear in the number of blocks instead of one dense (k, d) SVD. A block of full rank
+    keeps its coordinate vectors (as the whole basis is kept when every motion is seen); a
+    column no row reads is a free motion of its own; a rank-deficient block contributes its
+    SVD's row and null vectors.
+
+    Returns:
+        (free (d, f), seen (d, d - f), conditioning, seen_columns): seen_columns, when every
+        seen direction is a coordinate vector, is the index array of those columns (seen is
+        then the identity's columns ``seen_columns``), else None.
+    """
+    k, d = rows.shape
+    touched, where = np.nonzero(rows)  # row-major: each row's columns in order
+    labels = _column_blocks(touched, where, d)
+    read = labels >= 0
+    count = int(labels.max(initial=-1)) + 1
+    if count == 1 and bool(read.all()):
+        return None
+    row_label = np.full(k, -1)
+    row_label[touched] = labels[where]
+    column_sets = _members(labels, count)
+    row_sets = _members(row_label, count)
+    shapes: dict[tuple[int, int], list[int]] = {}
+    for b in range(count):
+        shapes.setdefault((row_sets[b].size, column_sets[b].size), []).append(b)
+    parts = []  # per block shape: (blocks, their columns (B, w), singular values, V^T)
+    for (height, width), members in shapes.items():
+        columns = np.array([column_sets[b] for b in members])  # (B, w)
+        stacked = rows[np.array([row_sets[b] for b in members])[:, :, None], columns[:, None, :]]
+        _, values, vt = np.linalg.svd(stacked, full_matrices=height < width)
+        parts.append((members, columns, values, vt))
+    largest = max((float(values[:, 0].max()) for _, _, values, _ in parts), default=0.0)
+    if largest == 0.0:
+        return np.eye(d), np.zeros((d, 0)), 1.0, np.zeros(0, dtype=np.intp)
+    smallest = largest
+    free_parts: dict[int, np.ndarray] = {}  # rank-deficient block -> its null vectors (d, .)
+    seen_parts: dict[int, np.ndarray] = {}  # and its seen directions (d, rank)
+    for members, columns, values, vt in parts:
+        counted = values > rtol * largest
+        smallest = min(smallest, float(np.where(counted, values, np.inf).min()))
+        ranks = np.sum(counted & (values > RANK_ATOL), axis=1)
+        for i in np.flatnonzero(ranks < columns.shape[1]).tolist():  # rank-deficient blocks
+            rank = int(ranks[i])
+            free_parts[members[i]] = _embedded(vt[i, rank:].T, columns[i], d)
+            seen_parts[members[i]] = _embedded(vt[i, :rank].T, columns[i], d)
+    unread = np.flatnonzero(~read)
+    free = np.hstack(
+        [*(free_parts[b] for b in sorted(free_parts)), _embedded(np.eye(unread.size), unread, d)]
+    )
+    seen_columns: np.ndarray | None
+    if not free_parts:  # every block of full rank: the seen directions are coordinates
+        seen_columns = np.flatnonzero(read)
+        seen = np.eye(d)[:, seen_columns]
+    else:
+        seen_columns = None
+        seen = np.hstack(
+            [
+                seen_parts[b] if b in seen_parts else _embedded(np.eye(cols.size), cols, d)
+                for b, cols in enumerate(column_sets)
+            ]
+        )
+    return free, seen, smallest / largest, seen_columns
+
+
+def _embedded(vectors: np.ndarray, columns: np.ndarray, d: int) -> np.ndarray:
+    """Vectors (len(columns), p) on the coordinates ``columns`` as vectors (d, p)."""
+    out = np.zeros((d, vectors.shape[1]))
+    out[columns] = vectors
+    return out
+
+
+def _members(labels: np.ndarray, count: int) -> list[np.ndarray]:
+    """Per label 0 .. count - 1, the indices carrying it, in order (-1: none)."""
+    kept = np.flatnonzero(labels >= 0)
+    ordered = kept[np.argsort(labels[kept], kind="stable")]
+    return np.split(ordered, np.cumsum(np.bincount(labels[kept], minlength=count))[:-1])
+
+
+def _column_blocks(touched: np.ndarray, where: np.ndarray, d: int) -> np.ndarray:
+    """Per column, the label 0, 1, ... of its block (columns joined by rows with nonzero entries
+    in both, numbered in the order of their first column), -1 for a column no row reads; from
+    the nonzero entries (``touched`` rows, ``where`` columns, row-major).
+
+    Each column's label starts as its own index and becomes the smallest over the rows that
+    read it (then over its label's label), until every row's columns share one: the smallest
+    column of the block, in a few array passes over the nonzero entries."""
+    labels = np.arange(d)
+    if where.size:
+        starts = np.flatnonzero(np.r_[True, touched[1:] != touched[:-1]])
+        lengths = np.diff(np.r_[starts, where.size])
+        while True:
+            smallest = np.repeat(np.minimum.reduceat(labels[where], starts), lengths)
+            updated = labels.copy()
+            np.minimum.at(updated, where, smallest)
+            while True:  # follow the labels to their roots
+                jumped = updated[updated]
+                if np.array_equal(jumped, updated):
+                    break
+                updated = jumped
+            if np.array_equal(updated, labels):
+                break
+            labels = updated
+    read = np.zeros(d, dtype=bool)
+    read[where] = True
+    roots = read & (labels == np.arange(d))  # the first column of each block
+    out = np.full(d, -1)
+    out[read] = (np.cumsum(roots) - 1)[labels[read]]
+    return out
+
+
 def reduce_geometry(
     maps: SmallDisplacementMaps, joints: dict, length_scale: float
 ) -> ReducedGeometry:
@@ -174,22 +296,42 @@ def reduce_geometry(
     equalities = np.array(equality_rows, dtype=float).reshape(len(equality_rows), n)
     normalised = _normalised_equalities(maps, equalities, equality_joints, scale)
     closure_basis, _, conditioning = _split_rows(normalised, n)
+    no_closure = normalised.size == 0  # a tree: the closure basis is the identity
+    seen_columns = None  # the basis is these columns of the identity (a tree's usual case)
     if contacts:
         contact_rows = np.vstack([c.rows / c.contact.bound for c in contacts]) * scale
-        free_w, seen_w, seen_conditioning = _split_rows(
-            contact_rows @ closure_basis, closure_basis.shape[1]
-        )
+        seen_rows = contact_rows if no_closure else contact_rows @ closure_basis
+        split = _split_blocks(seen_rows)
+        if split is None:  # one block over all unknowns (loops): one SVD
+            free_w, seen_w, seen_conditioning = _split_rows(seen_rows, closure_basis.shape[1])
+        else:
+            free_w, seen_w, seen_conditioning, seen_columns = split
         conditioning = min(conditioning, seen_conditioning)
         if not free_w.shape[1]:
             # every motion is seen: keep the closure basis as it is (the SVD's rotation of it
             # would mix every unknown into every contact row and make the cone data dense)
             seen_w = np.eye(closure_basis.shape[1])
+            seen_columns = np.arange(closure_basis.shape[1])
     else:
         free_w = np.eye(closure_basis.shape[1])
         seen_w = np.zeros((closure_basis.shape[1], 0))
-    free_z = closure_basis @ free_w
-    basis = closure_basis @ seen_w
-    matrices = tuple((c.rows * scale) @ basis / c.contact.bound for c in contacts)
+    if no_closure:  # I W = W: no (n, n) products
+        free_z, basis = free_w, seen_w
+    else:
+        free_z = closure_basis @ free_w
+        basis = closure_basis @ seen_w
+        seen_columns = None
+    # a coordinate selection: gathered, not multiplied (+ 0.0: a -0.0 reads +0.0, as it did in
+    # the product with the identity)
+    if seen_columns is not None and seen_columns.size == n:  # Q = I: no (k, n) x (n, n)
+        matrices = tuple((c.rows * scale + 0.0) / c.contact.bound for c in contacts)
+    elif seen_columns is not None:
+        matrices = tuple(
+            (c.rows[:, seen_columns] * scale[seen_columns] + 0.0) / c.contact.bound
+            for c in contacts
+        )
+    else:
+        matrices = tuple((c.rows * scale) @ basis / c.contact.bound for c in contacts)
     free_x = scale[:, None] * free_z
     descriptions = LazySequence(
         lambda: (
