@@ -46,8 +46,9 @@ factor 10 of margin by bounds: a loaded group's smallest singular value is at le
 rows) or :math:`\sigma_{min}(P_g)` (slabs), an unloaded group's largest at most
 :math:`\sum_j 2 \lambda_j \lVert P_j^T P_j \rVert_F`, and the largest of all lies between the
 largest loaded gradient (:math:`\ge 2\sigma_{min}(P_j)` or :math:`\lVert p_j \rVert`) and the
-Frobenius norm; the few cases these bounds leave open are decided on the groups' singular values
-themselves (eigenvalues of :math:`B_g^T B_g`, a few small matrices per case). Anything else (an
+largest group's Frobenius norm (the blocks are diagonal over the groups); the few cases these
+bounds leave open are decided on the groups' singular values themselves (eigenvalues of
+:math:`B_g^T B_g`, a few small matrices per case). Anything else (an
 unloaded end of a loaded journal, a contact between the two shares) is left to the general path,
 whose minimum-norm point there depends on the scaling.
 """
@@ -333,11 +334,13 @@ def _unique(
 ) -> Mask:
     """Cases where the general path's flat test (singular values of the loaded gradients and
     the Hessian above 1e-9 of the largest) surely keeps every loaded group and surely drops
-    every unloaded one: against the largest singular value's upper bound (Frobenius norm) and
-    lower bound (the largest loaded gradient), with a factor 10 of margin either way."""
+    every unloaded one: against the largest singular value's upper bound (the largest group's
+    Frobenius norm: B = [G; H] is block diagonal over the groups, so its largest singular value
+    is the largest of the groups') and lower bound (the largest loaded gradient), with a factor 10
+    of margin either way."""
     curvature = multipliers @ (2.0 * s.curvature_size[:, None] * s.members)  # (N, G) >= |H_g|_F
-    gradients = loaded @ s.gradient_size**2
-    upper = np.sqrt(gradients + np.einsum("ng,ng->n", curvature, curvature))[:, None]
+    gradients = (loaded * s.gradient_size**2) @ s.members  # (N, G) >= |G_g|_F^2
+    upper = np.sqrt((gradients + curvature * curvature).max(axis=1, initial=0.0))[:, None]
     lower = (loaded * s.gradient_floor).max(axis=1, initial=0.0)[:, None]
     smallest = np.minimum.reduceat(multipliers[:, s.group_order], s.group_starts, axis=1)
     floor = np.where(s.group_is_norm, 2.0 * smallest * s.group_floor, s.group_floor)
@@ -357,26 +360,59 @@ def _unique_exactly(s: BlockStructure, images: Array, multipliers: Array, loaded
         return np.zeros(0, dtype=bool)
     low = np.zeros((count, len(s.group_rows)))
     high = np.zeros((count, len(s.group_rows)))
-    for g, (rows, matrix) in enumerate(zip(s.group_rows, s.group_matrices)):
-        contact = s.row_contact[rows]
-        lam = multipliers[:, contact]  # (K, k)
-        counted = multipliers[:, contact] > UNLOADED * multipliers.max(axis=1)[:, None]
-        if s.group_is_norm[g]:
-            weights = np.where(counted, 2.0 * images[:, rows] / s.row_bound[rows], 0.0)
-            hessian = np.einsum("ri,kr,rj->kij", matrix, 2.0 * lam, matrix)
+    threshold = UNLOADED * multipliers.max(axis=1)[:, None, None]
+    for groups, rows, contact, matrix, bound, is_norm, starts in _shape_classes(s):
+        lam = multipliers[:, contact]  # (K, G', k): the groups of one shape at once
+        counted = lam > threshold
+        if is_norm:
+            weights = np.where(counted, 2.0 * images[:, rows] / bound, 0.0)
         else:
             weights = np.where(counted, np.sign(images[:, rows]), 0.0)
-            hessian = np.zeros((count, matrix.shape[1], matrix.shape[1]))
-        starts = np.flatnonzero(np.r_[True, contact[1:] != contact[:-1]])
-        gradients = np.add.reduceat(weights[:, :, None] * matrix[None], starts, axis=1)
-        gram = np.einsum("kci,kcj->kij", gradients, gradients) + hessian @ hessian
+        gradients = np.add.reduceat(weights[..., None] * matrix[None], starts, axis=2)
+        gram = np.einsum("kgci,kgcj->kgij", gradients, gradients)
+        if is_norm:
+            hessian = np.einsum("gri,kgr,grj->kgij", matrix, 2.0 * lam, matrix)
+            gram = gram + hessian @ hessian
         values = np.sqrt(np.maximum(np.linalg.eigvalsh(gram), 0.0))
-        low[:, g], high[:, g] = values[:, 0], values[:, -1]
+        low[:, groups], high[:, groups] = values[..., 0], values[..., -1]
     largest = high.max(axis=1)[:, None]
     seen = low > FLAT_MARGIN * largest
     unseen = high <= UNSEEN_MARGIN * largest
     clear: Mask = np.all(np.where(loaded, seen, unseen), axis=1)
     return clear
+
+
+def _shape_classes(s: BlockStructure) -> list[tuple]:
+    """The groups of one shape (rows x columns, ball/disc or slab, contacts' row pattern) stacked
+    together, so that :func:`_unique_exactly` runs a few batched products, not one per group:
+    (group indices, rows (G', k), their contacts, matrices (G', k, c), row bounds, is_norm,
+    contact starts); memoised on the structure."""
+    cached = s.__dict__.get("_shape_classes")
+    if cached is not None:
+        return cached  # type: ignore[no-any-return]
+    found: dict[tuple, list[int]] = {}
+    for g, (rows, matrix) in enumerate(zip(s.group_rows, s.group_matrices)):
+        contact = s.row_contact[rows]
+        starts = np.flatnonzero(np.r_[True, contact[1:] != contact[:-1]])
+        found.setdefault(
+            (matrix.shape, bool(s.group_is_norm[g]), tuple(starts.tolist())), []
+        ).append(g)
+    classes = []
+    for (_, is_norm, starts), groups in found.items():
+        rows = np.stack([s.group_rows[g] for g in groups])
+        classes.append(
+            (
+                np.array(groups, dtype=np.intp),
+                rows,
+                s.row_contact[rows],
+                np.stack([s.group_matrices[g] for g in groups]),
+                s.row_bound[rows],
+                is_norm,
+                np.array(starts, dtype=np.intp),
+            )
+        )
+    object.__setattr__(s, "_shape_classes", classes)  # frozen dataclass: a derived cache
+    return classes
 
 
 def reduced_unknowns(structure: BlockStructure, x: Array) -> Array:
