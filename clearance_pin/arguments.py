@@ -39,6 +39,18 @@ def check_options(
     warm_start: object = True,
 ) -> None:
     """The scalar options of a solve (see :meth:`Mechanism.solve` for their meaning)."""
+    if (
+        (exact is False or exact is True)
+        and gravity is None
+        and type(tol) is float
+        and type(accuracy) is float
+        and 0.0 < tol < math.inf
+        and 0.0 < accuracy < math.inf
+        and type(backend) is str
+        and backend in BACKENDS
+        and (warm_start is True or warm_start is False)
+    ):
+        return  # the common case, decided without the checks below (a planner's re-solve)
     if not (_is_bool(exact) or (isinstance(exact, str) and exact == "auto")):
         raise ArgumentError("exact", "True, False or 'auto'", exact)
     if not (gravity is None or _is_bool(gravity) or isinstance(gravity, Gravity)):
@@ -58,7 +70,7 @@ def check_options(
 
 def check_loads(loads: object, argument: str = "loads") -> None:
     """``loads`` is None or a list (any iterable) of loads, not a single load nor a text."""
-    if loads is None:
+    if loads is None or type(loads) in (list, tuple):
         return
     if isinstance(loads, LOAD_TYPES):
         raise ArgumentError(

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..model.loads import Gravity, PointForce, Torque
 from .cone_solver import WARM_MAX_SIZE, ConeSolution, acceptance
+from .frozen import frozen_instance
 from .kkt import ACTIVE_GAP, POLISH_TOL, PROXIMAL, UNLOADED
 from .lazy import LazySequence
 from .linear_answer import linear_equilibrium
@@ -104,6 +105,7 @@ class FastTerms:
     def __init__(self, prepared: PreparedGeometry):
         terms, stack = prepared.terms, prepared.geometry.stack
         self.prepared = prepared
+        self.kernel = compiled_kernel()
         self.size = stack.size
         ends = np.append(stack.starts, stack.matrix.shape[0]).astype(np.int64)
         self.cone = (
@@ -183,13 +185,12 @@ def fast_terms(prepared: PreparedGeometry) -> FastTerms | None:
     """The :class:`FastTerms` of ``prepared`` (built on first use), None when the kernel is not
     engaged (:func:`compiled_kernel`), the mechanism has no verified solution yet (a first solve
     goes the NumPy way) or the problem is larger than a dense Newton step pays for."""
+    if compiled_kernel(engage=True) is None:  # loaded, or loads now when it pays
+        return None
     built = prepared.__dict__.get("_fast_terms")
     if built is not None:
         return built
-    mechanism = prepared.mechanism
-    if not mechanism.cache.warm or prepared.geometry.stack.size > WARM_MAX_SIZE:
-        return None
-    if compiled_kernel(engage=True) is None:
+    if not prepared.mechanism.cache.warm or prepared.geometry.stack.size > WARM_MAX_SIZE:
         return None
     built = FastTerms(prepared)
     prepared.__dict__["_fast_terms"] = built
@@ -203,15 +204,17 @@ def solve_compiled(
     backend_of,
     started: float,
     output_points: tuple = (),
+    mapped: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> Equilibrium | None:
     """The verified answer by the kernel, or None (the NumPy path then solves this load).
 
     Args:
         warm: the previous solution of this structure (its contact set is tried first), or None.
         backend_of: ``problem -> (built backend, built now)`` for the cold start.
+        mapped: ``fast.load_map(loads)`` when the caller knows it (:mod:`.resolver`).
     """
-    kernel = compiled_kernel()
-    mapped = fast.load_map(loads)
+    kernel = fast.kernel
+    mapped = fast.load_map(loads) if mapped is None else mapped
     if mapped is None:
         return None
     params, load_matrix, load_constant = mapped
@@ -249,18 +252,21 @@ def solve_compiled(
     )
     stationarity, feasibility, complementarity = kkt.tolist()
     statics, violation, relative, rotation, energy = measured.tolist()
-    residuals = Residuals(
-        stationarity=stationarity,
-        dual_infeasibility=0.0,
-        statics=statics,
-        max_violation_m=violation,
-        max_violation_rel=relative,
-        clearance_m=fast.clearance,
-        feasibility=feasibility,
-        complementarity=complementarity,
-        closure_conditioning=prepared.geometry.conditioning,
-        largest_rotation_rad=rotation,
-        unblocked_load=share,
+    residuals = frozen_instance(
+        Residuals,
+        dict(
+            stationarity=stationarity,
+            dual_infeasibility=0.0,
+            statics=statics,
+            max_violation_m=violation,
+            max_violation_rel=relative,
+            clearance_m=fast.clearance,
+            feasibility=feasibility,
+            complementarity=complementarity,
+            closure_conditioning=prepared.geometry.conditioning,
+            largest_rotation_rad=rotation,
+            unblocked_load=share,
+        ),
     )
     if not residuals.ok():
         return None

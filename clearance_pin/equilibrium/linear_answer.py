@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .frozen import frozen_instance
 from .lazy import LazyMapping, LazySequence, placements
 from .prepared import PreparedGeometry
 from .reduction import ReducedProblem
@@ -96,26 +97,29 @@ def linear_equilibrium(
     mechanism = prepared.mechanism
     contacts = LazySequence(lambda: _contacts(prepared, gaps, force_rows, multipliers))
     status, solver_status, iterations, polished = outcome
-    return Equilibrium(
-        formulation="linear",
-        torsors=dict(zip(prepared.joint_names, torsor_array)),
-        body_motions=LazyMapping(lambda: prepared.body_motions(twists, mechanism.model.names)),
-        contacts=contacts,
-        energy=energy,
-        status=status,
-        solver_status=solver_status,
-        iterations=iterations,
-        residuals=measured,
-        free_motions=free_motions,
-        build_time=times[0],
-        solve_time=times[1],
-        polished=polished,
-        body_placements=placements(twists, prepared.configuration.oMi),
-        mechanism=mechanism,
-        configuration=prepared.configuration,
-        body_twists=twists,
-        loads=tuple(loads),
-        output_points=output_points,
+    return frozen_instance(
+        Equilibrium,
+        dict(
+            formulation="linear",
+            torsors=dict(zip(prepared.joint_names, torsor_array)),
+            body_motions=LazyMapping(lambda: prepared.body_motions(twists, mechanism.model.names)),
+            contacts=contacts,
+            energy=energy,
+            status=status,
+            solver_status=solver_status,
+            iterations=iterations,
+            residuals=measured,
+            free_motions=free_motions,
+            build_time=times[0],
+            solve_time=times[1],
+            polished=polished,
+            body_placements=placements(twists, prepared.configuration.oMi),
+            mechanism=mechanism,
+            configuration=prepared.configuration,
+            body_twists=twists,
+            loads=tuple(loads),
+            output_points=output_points,
+        ),
     )
 
 

@@ -67,12 +67,14 @@ def resolve_outputs(mechanism, loads=(), outputs=None) -> tuple[OutputPoint, ...
     Kept per mechanism for the same loaded points and outputs (a planner re-solving with new load
     values asks for the same points every time)."""
     try:
+        loaded: list[tuple[str, bytes | None]] = []
+        for load in loads:
+            if isinstance(load, PointForce):
+                loaded.append((load.link, load.point.tobytes()))
+            elif isinstance(load, Torque):
+                loaded.append((load.link, None))
         key = (
-            tuple(
-                (load.link, tuple(map(float, load.point)) if isinstance(load, PointForce) else None)
-                for load in loads
-                if isinstance(load, (PointForce, Torque))
-            ),
+            tuple(loaded),
             outputs if outputs is None or isinstance(outputs, str) else tuple(outputs),
         )
         hash(key)

@@ -20,7 +20,7 @@ from .blocks import block_structure
 from .cone_solver import WarmBet, backend_for, solve_cone
 from .fast_path import fast_terms, solve_compiled
 from .linear_answer import assemble_linear
-from .prepared import prepared_geometry
+from .prepared import PreparedGeometry, prepared_geometry
 from .result import Equilibrium
 
 CONDITIONING_WARNING = 1e-6
@@ -35,30 +35,27 @@ def solve_linear(
     backend: str = "auto",
     warm_start: bool = True,
     output_points: tuple = (),
+    prepared: PreparedGeometry | None = None,
+    known: tuple[np.ndarray, dict] | None = None,
 ) -> Equilibrium:
     """Small-displacement equilibrium (docs/method.md sections 2 and 3) with its residuals
     measured; raises SolverError (carrying the unverified answer) when they fail.
 
     A mechanism solved before goes the compiled way first (:mod:`.fast_path`); what that does
-    not verify, and every first solve, goes the NumPy way below."""
+    not verify, and every first solve, goes the NumPy way below. ``prepared`` (the mechanism
+    prepared at ``q``) and ``known`` (see :func:`_compiled`; :mod:`.resolver`) save a re-solve
+    the look-ups."""
     started = time.perf_counter()
-    prepared = prepared_geometry(mechanism, q)
+    if prepared is None:
+        prepared = prepared_geometry(mechanism, q)
     closed_forms = backend == "auto" and (
         block_structure(prepared.geometry, bool(mechanism.loop_joints)) is not None
     )
     fast = None if closed_forms else fast_terms(prepared)
     if fast is not None:
-        cache = mechanism.cache
-        answer = solve_compiled(
-            fast,
-            loads,
-            cache.warm.get(prepared.signature) if warm_start else None,
-            lambda problem: backend_for(problem, backend, tol, prepared.signature, cache.backends),
-            started,
-            output_points,
-        )
+        answer = _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, started,
+                           output_points, known)  # fmt: skip
         if answer is not None:
-            _warn_if_inaccurate(mechanism, answer, prepared.geometry.conditioning)
             return answer
     problem = prepared.problem(loads)
     count = len(problem.contacts)
@@ -152,6 +149,37 @@ def solve_linear(
             equilibrium,
         )
     return equilibrium
+
+
+def _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, started, output_points,
+              known):  # fmt: skip
+    """The compiled answer (:func:`.fast_path.solve_compiled`), warned about like any, or None.
+
+    ``known``: (the loads' force and torque vectors stacked (3 k,), a dict the caller keeps for
+    loads of one structure, where the load map is kept), or None."""
+    mapped = None
+    if known is not None:
+        values, kept = known
+        built = kept.get("map")
+        if built is None or built[0] is not fast:
+            full = fast.load_map(loads)
+            if full is None:
+                return None
+            built = kept["map"] = (fast, full[1], full[2])
+        mapped = (values, built[1], built[2])
+    cache = mechanism.cache
+    answer = solve_compiled(
+        fast,
+        loads,
+        cache.warm.get(prepared.signature) if warm_start else None,
+        lambda problem: backend_for(problem, backend, tol, prepared.signature, cache.backends),
+        started,
+        output_points,
+        mapped,
+    )
+    if answer is not None:
+        _warn_if_inaccurate(mechanism, answer, prepared.geometry.conditioning)
+    return answer
 
 
 def _warn_if_inaccurate(mechanism, equilibrium: Equilibrium, conditioning: float) -> None:
