@@ -364,6 +364,14 @@ class Mechanism:
 
         return envelope(self, output, q=q, exact=exact, **options)
 
+    def resolver(self, loads=None, q=None, gravity=None, outputs=None, **options):
+        """A :class:`~clearance_pin.equilibrium.resolver.Resolver`: ``loads`` (default: the
+        model's) built once, re-solved with new force and torque vectors,
+        ``resolver.solve(values)`` (options: tol, backend, warm_start, as :meth:`solve`)."""
+        from .equilibrium.resolver import Resolver
+
+        return Resolver(self, loads, q=q, gravity=gravity, outputs=outputs, **options)
+
     def solve_many(self, loads=None, configurations=None, **options):
         """Many equilibria, warm-started in sequence; see
         :func:`clearance_pin.equilibrium.batch.solve_many` (options: exact, gravity, tol, backend,

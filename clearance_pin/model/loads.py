@@ -130,3 +130,15 @@ class Gravity:
 
 
 Load = PointForce | Torque | Gravity
+
+
+def with_vector(load: PointForce | Torque, vector: np.ndarray) -> PointForce | Torque:
+    """``load`` with its force (PointForce) or torque (Torque) replaced by ``vector`` [N, N m],
+    a float array (3,) that the caller has checked is finite (a planner's re-solve: the checks
+    and argument binding of the constructor cost microseconds each time)."""
+    value = np.array(vector, dtype=float)
+    value.setflags(write=False)
+    copy = object.__new__(type(load))
+    copy.__dict__.update(load.__dict__)
+    copy.__dict__["force" if isinstance(load, PointForce) else "torque"] = value
+    return copy

@@ -1,0 +1,78 @@
+"""Mechanism.resolver: one set of loads re-solved with new force and torque vectors gives the
+answers of Mechanism.solve of those loads (the same code after the look-ups it saves), on a
+paper shaft (compiled path), a four-bar and the 6R arm with gravity (closed forms); bad values
+are refused naming the argument."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import clearance_pin
+from clearance_pin import ArgumentError, PointForce, Torque
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _vectors(loads):
+    return np.concatenate(
+        [load.force if isinstance(load, PointForce) else load.torque for load in loads
+         if isinstance(load, (PointForce, Torque))]
+    )  # fmt: skip
+
+
+def _with(loads, vector):
+    out, k = [], 0
+    for load in loads:
+        if isinstance(load, PointForce):
+            out.append(PointForce(load.link, force=vector[k : k + 3], point=load.point))
+            k += 3
+        elif isinstance(load, Torque):
+            out.append(Torque(load.link, vector[k : k + 3]))
+            k += 3
+    return out
+
+
+@pytest.mark.parametrize("model", ["younes_two_cylinders", "four_bar", "arm_6r"])
+def test_resolver_answers_as_solve(model):
+    mechanism = clearance_pin.load(str(ROOT / "models" / f"{model}.urdf"))
+    reference = clearance_pin.load(str(ROOT / "models" / f"{model}.urdf"))
+    base = [load for load in mechanism.loads if isinstance(load, (PointForce, Torque))]
+    resolver = mechanism.resolver(base)
+    assert resolver.size == 3 * len(base)
+    rng = np.random.default_rng(3)
+    start = _vectors(base)
+    for _ in range(30):
+        vector = start + 0.2 * np.abs(start).max() * rng.standard_normal(start.size)
+        try:
+            expected = reference.solve(_with(base, vector))
+        except clearance_pin.UnboundedLoadError:
+            with pytest.raises(clearance_pin.UnboundedLoadError):
+                resolver.solve(vector)
+            continue
+        answer = resolver.solve(vector.reshape(-1, 3))
+        assert answer.ok and answer.status == expected.status
+        play = max(c.clearance for c in expected.contacts)
+        for joint, torsor in expected.torsors.items():
+            assert np.abs(answer.torsors[joint] - torsor).max() <= 1e-11 * max(play, 1.0)
+        assert answer.loads is not None and len(answer.loads) == len(resolver.loads)
+        assert np.array_equal(answer.loads[0].force if isinstance(answer.loads[0], PointForce)
+                              else answer.loads[0].torque, vector[:3])  # fmt: skip
+        answer.reaction(next(iter(answer.torsors)))  # the loads it carries are usable
+
+
+def test_resolver_refuses_bad_values_and_loads():
+    mechanism = clearance_pin.load(str(ROOT / "models/four_bar.urdf"))
+    resolver = mechanism.resolver()
+    with pytest.raises(ArgumentError, match="values"):
+        resolver.solve(np.ones(resolver.size + 1))
+    with pytest.raises(ArgumentError, match="values"):
+        resolver.solve(np.full(resolver.size, np.nan))
+    with pytest.raises(ArgumentError, match="values"):
+        resolver.solve("12")
+    with pytest.raises(ArgumentError, match="loads"):
+        mechanism.resolver([clearance_pin.Gravity()])
+    with pytest.raises(ArgumentError, match="backend"):
+        mechanism.resolver(backend="fast")
