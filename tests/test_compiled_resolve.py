@@ -206,3 +206,36 @@ def test_import_and_a_first_solve_do_not_load_numba():
 def test_load_kernel_reports_its_time(compiled):
     assert fast_path.kernel_load_time() is not None and fast_path.kernel_load_time() >= 0.0
     assert fast_path.load_kernel() == fast_path.kernel_load_time()
+
+
+@pytest.mark.parametrize(
+    "name, build", list(_mechanisms())[:4], ids=[n for n, _ in _mechanisms()][:4]
+)
+def test_compiled_batch_equals_single_solves(name, build, compiled):
+    """solve_many over 60 perturbed loads in one compiled call (each case warm-started from the
+    previous one) gives the single solves' answers (NumPy path) to 1e-11 of the play, verified;
+    half or more in the compiled batch (the others, whose contact set differs too much from their
+    neighbour's, solved alone), most by the kernel."""
+    rng = np.random.default_rng(RNG_SEED + 1)
+    mechanism, reference = build(), build()
+    base = tuple(load for load in mechanism.loads if isinstance(load, (PointForce, Torque)))
+    loads = [case for case in _perturbed(base, rng, 60)]
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("CLEARANCE_PIN_COMPILED", "0")
+        expected = [_outcome(reference, case) for case in loads]
+    keep = [i for i, e in enumerate(expected) if not isinstance(e, str)]
+    mechanism.solve(base)
+    batch = mechanism.solve_many([loads[i] for i in keep])
+    play = max(c.clearance for c in expected[keep[0]].contacts)
+    length = mechanism.length_scale()
+    assert batch.ok.all()
+    for joint in expected[keep[0]].torsors:
+        difference = batch.torsors(joint) - np.array([expected[i].torsors[joint] for i in keep])
+        assert np.abs(difference[:, :3]).max() <= AGREEMENT * play
+        assert np.abs(difference[:, 3:]).max() * length <= AGREEMENT * play
+    batched = sum(item.solver_status == "batched Newton (compiled)" for item in batch)
+    compiled_cases = sum("(compiled" in item.solver_status for item in batch)
+    assert batched >= 0.5 * len(keep), f"{name}: {batched} of {len(keep)} in the batch"
+    assert compiled_cases >= 0.8 * len(keep), f"{name}: {compiled_cases} of {len(keep)}"
+    for item, i in zip(batch, keep):
+        assert item.ok and len(item.free_motions) == len(expected[i].free_motions)

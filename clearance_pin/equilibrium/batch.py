@@ -21,8 +21,10 @@ from ..errors import ClearancePinError
 from ..progress import Progress
 from .batch_newton import batched_newton, stacked_evaluation
 from .cone_solver import acceptance
+from .fast_path import fast_terms
 from .kkt import UNLOADED
-from .linear_answer import assemble_linear
+from .lazy import LazySequence
+from .linear_answer import assemble_linear, linear_equilibrium
 from .prepared import prepared_geometry
 from .reduction import loaded_problem
 from .residuals import FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
@@ -230,6 +232,12 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
     prepared = prepared_geometry(mechanism)
     geometry = prepared.geometry
+    fast = fast_terms(prepared, len(cases) - 1)
+    if fast is not None:
+        compiled = _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, errors)
+        if compiled is not None:
+            bar.update(len(cases))
+            return compiled
     if geometry.basis.shape[1] > BATCH_MAX_SIZE:
         # stacked dense KKT systems cost O(N r^3) memory traffic for little gain at this size
         rest = _solve_chunk(mechanism, cases[1:], options, errors, bar)
@@ -320,6 +328,70 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
             bar.update()
     torsor_maps = {name: prepared.maps.joint_torsor[name] for name in mechanism.joints}
     return EquilibriumBatch(items, {"x": x_all, "batched": batched, "torsor_maps": torsor_maps})
+
+
+def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, errors):
+    """Load cases at one configuration in one compiled call (:func:`.kernel.solve_cases`), each
+    warm-started from the previous case's answer, verified like a single solve; the cases it
+    does not verify are solved alone. None when the cases' loads do not share one set of loaded
+    points (the NumPy batch then runs)."""
+    seed = mechanism.cache.warm.get(prepared.signature)
+    if seed is None:
+        return None
+    resolved = [mechanism.resolve_loads(case_loads, options["gravity"]) for case_loads, _ in cases]
+    maps = [fast.load_map(loads) for loads in resolved[1:]]
+    if not maps or any(m is None or m[1] is not maps[0][1] for m in maps):
+        return None
+    params = np.array([m[0] for m in maps]).reshape(len(maps), -1)
+    rows, _ = fast.solve(
+        params, maps[0][1], maps[0][2], seed.y, seed.multipliers, seed.signs, chain=True
+    )
+    x_column = next(start for name, start, _, _ in fast.layout if name == "x")
+    x_all = np.full((len(cases), prepared.size_x), np.nan)
+    batched = np.zeros(len(cases), dtype=bool)
+    statics, violation = rows[:, 7], rows[:, 9]
+    good = (
+        (rows[:, 0] == fast.kernel.SOLVED)
+        & (statics <= STATICS_TOLERANCE)
+        & (violation <= FEASIBILITY_TOLERANCE)
+    )
+    items: list = [first]
+    for k, row in enumerate(rows):
+        if good[k]:
+            items.append(_compiled_item(fast, row, resolved[k + 1]))
+            x_all[k + 1] = row[x_column : x_column + prepared.size_x]
+            batched[k + 1] = True
+        else:
+            items.append(_solve_chunk(mechanism, [cases[k + 1]], options, errors)[0])
+    torsor_maps = {name: prepared.maps.joint_torsor[name] for name in mechanism.joints}
+    return EquilibriumBatch(items, {"x": x_all, "batched": batched, "torsor_maps": torsor_maps})
+
+
+def _compiled_item(fast, row, loads):
+    """The Equilibrium of one case of a compiled batch, assembled when first read (its flat
+    directions, if any, described then)."""
+
+    def build():
+        prepared = fast.prepared
+        answer = fast.parts(row)
+        flat, notes = prepared.flat_directions(answer["y"], answer["multipliers"], answer["signs"])
+        free = prepared.geometry.free_descriptions
+        return linear_equilibrium(
+            prepared,
+            answer["torsors"],
+            answer["twists"],
+            answer["gaps"],
+            answer["forces"],
+            answer["multipliers"],
+            fast.residuals(row),
+            float(row[11]),
+            ("optimal", "batched Newton (compiled)", 0, True),
+            (0.0, 0.0),
+            LazySequence(lambda: (*free, *notes)) if flat.shape[1] else free,
+            loads,
+        )
+
+    return build
 
 
 def _unique(stack, seed, y, multipliers, verified):

@@ -75,9 +75,10 @@ def kernel_load_time() -> float | None:
     return None if value is None else float(value)  # type: ignore[arg-type]
 
 
-def compiled_kernel(engage: bool = False):
-    """The kernel module (:mod:`.kernel`) when loaded; with ``engage`` (a re-solve), loaded
-    when the process has re-solved :data:`COMPILE_AFTER` times (``CLEARANCE_PIN_COMPILED=1``:
+def compiled_kernel(engage: int = 0):
+    """The kernel module (:mod:`.kernel`) when loaded; with ``engage`` (the re-solves a call
+    stands for: 1, or a batch's cases), loaded when the process has re-solved
+    :data:`COMPILE_AFTER` times (``CLEARANCE_PIN_COMPILED=1``:
     at once); None otherwise, when numba is missing or ``CLEARANCE_PIN_COMPILED=0``."""
     setting = os.environ.get("CLEARANCE_PIN_COMPILED", "auto")
     if setting == "0":
@@ -87,7 +88,7 @@ def compiled_kernel(engage: bool = False):
         return module
     if "failed" in _loaded:
         return None
-    _resolves[0] += 1
+    _resolves[0] += engage
     if setting != "1" and _resolves[0] < COMPILE_AFTER:
         return None
     try:
@@ -122,7 +123,6 @@ class FastTerms:
             np.ascontiguousarray(prepared._twist_rows),
             np.ascontiguousarray(terms.contact_rows),
             np.ascontiguousarray(terms.contact_offsets, dtype=float),
-            ends,
             np.ascontiguousarray(terms.bounds, dtype=float),
             np.ascontiguousarray(terms.contact_of_row, dtype=np.int64),
             np.ascontiguousarray(terms.norm_force),
@@ -133,6 +133,61 @@ class FastTerms:
         self.clearance = float(terms.bounds.max(initial=0.0))
         self.accept = acceptance(prepared.geometry.conditioning)
         self.load_maps: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        # the columns of solve_cases' rows after its scalars (kernel.solve_cases)
+        m, joints, bodies = stack.count, len(terms.joint_names), prepared.bodies
+        sizes = (
+            ("y", self.size, None),
+            ("multipliers", m, None),
+            ("signs", m, None),
+            ("x", prepared.size_x, None),
+            ("torsors", 6 * joints, (joints, 6)),
+            ("twists", 6 * bodies, (bodies, 6)),
+            ("gaps", m, None),
+            ("forces", stack.matrix.shape[0], None),
+        )
+        self.layout, at = [], self.kernel.SCALARS
+        for name, size, shape in sizes:
+            self.layout.append((name, at, at + size, shape))
+            at += size
+
+    def solve(self, cases, load_matrix, load_constant, y, multipliers, signs, chain=False,
+              allow_flat=True):  # fmt: skip
+        """kernel.solve_cases on the load cases ``cases`` (N, 3 k) from the guess (y,
+        multipliers, slab sides): (rows (N, width), flat directions of the last case)."""
+        return self.kernel.solve_cases(
+            cases, load_matrix, load_constant, self.load_rows, self.prepared.size_x, self.weights,
+            *self.cone, _vector(y), _vector(multipliers), _vector(signs), self.accept, ROUNDS,
+            ITERATIONS, TOLERANCES, *self.answer, chain, allow_flat,
+        )  # fmt: skip
+
+    def parts(self, row: np.ndarray) -> dict[str, np.ndarray]:
+        """The arrays of one row of :meth:`solve` (views): y, multipliers, signs, x, torsors
+        (joints, 6), twists (bodies, 6), gaps, forces."""
+        return {
+            name: row[start:end] if shape is None else row[start:end].reshape(shape)
+            for name, start, end, shape in self.layout
+        }
+
+    def residuals(self, row: np.ndarray) -> Residuals:
+        """The measured residuals of one row of :meth:`solve`."""
+        (_, _, _, share, stationarity, feasibility, complementarity, statics, violation, relative,
+         rotation, _) = row[: self.kernel.SCALARS].tolist()  # fmt: skip
+        return frozen_instance(
+            Residuals,
+            {
+                "stationarity": stationarity,
+                "dual_infeasibility": 0.0,
+                "statics": statics,
+                "max_violation_m": violation,
+                "max_violation_rel": relative,
+                "clearance_m": self.clearance,
+                "feasibility": feasibility,
+                "complementarity": complementarity,
+                "closure_conditioning": self.prepared.geometry.conditioning,
+                "largest_rotation_rad": rotation,
+                "unblocked_load": share,
+            },
+        )
 
     def load_map(self, loads) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         r"""(p, A, w0): the loads' force and torque vectors stacked (3 k,) [N, N m] and the map
@@ -181,11 +236,11 @@ class FastTerms:
         return np.ascontiguousarray(matrix), np.ascontiguousarray(constant)
 
 
-def fast_terms(prepared: PreparedGeometry) -> FastTerms | None:
+def fast_terms(prepared: PreparedGeometry, resolves: int = 1) -> FastTerms | None:
     """The :class:`FastTerms` of ``prepared`` (built on first use), None when the kernel is not
     engaged (:func:`compiled_kernel`), the mechanism has no verified solution yet (a first solve
     goes the NumPy way) or the problem is larger than a dense Newton step pays for."""
-    if compiled_kernel(engage=True) is None:  # loaded, or loads now when it pays
+    if compiled_kernel(engage=resolves) is None:  # loaded, or loads now when it pays
         return None
     built = prepared.__dict__.get("_fast_terms")
     if built is not None:
@@ -219,59 +274,38 @@ def solve_compiled(
         return None
     params, load_matrix, load_constant = mapped
     prepared = fast.prepared
-    n, r = prepared.size_x, fast.size
-    code, objective, sigma, scaled, load_size, share = kernel.load_objective(
-        params, load_matrix, load_constant, fast.load_rows, n, r, fast.weights, TOLERANCES
-    )
-    if code != kernel.SOLVED:
-        return None
-    matrix, offset, ends, is_norm = fast.cone
+    cases = params.reshape(1, -1)
     status, iterations, build_time = "warm Newton (compiled)", 0, 0.0
     solved = None
-    if warm is not None and warm.y.shape == (r,):
-        solved = kernel.verified_optimum(
-            matrix, offset, ends, is_norm, objective, _vector(warm.y), _vector(warm.multipliers),
-            _vector(warm.signs), fast.accept, ROUNDS, ITERATIONS, TOLERANCES,
+    if warm is not None and warm.y.shape == (fast.size,):
+        solved = fast.solve(cases, load_matrix, load_constant, warm.y, warm.multipliers, warm.signs)
+        if solved[0][0, 0] in (kernel.UNBOUNDED, kernel.NO_WORK):
+            return None  # the NumPy path raises or answers "indeterminate"
+    if solved is None or solved[0][0, 0] != kernel.SOLVED:
+        code, objective, sigma, scaled, load_size, share = kernel.load_objective(
+            params, load_matrix, load_constant, fast.load_rows, prepared.size_x, fast.size,
+            fast.weights, TOLERANCES,
         )  # fmt: skip
-    if solved is None or solved[0] != kernel.SOLVED:
+        if code != kernel.SOLVED:
+            return None
         geometry = prepared.geometry
-        problem = loaded_problem(geometry, scaled / geometry.scale, objective, sigma, load_size)
+        problem = loaded_problem(
+            geometry, scaled / geometry.scale, objective, sigma, load_size, share
+        )
         built, built_now = backend_of(problem)
         y, lam, backend_status, iterations = built.run(problem)
         status = f"{backend_status} (compiled polish)"
         build_time = (built.build_time if built_now else 0.0) + getattr(built, "setup_time", 0.0)
-        solved = kernel.verified_optimum(
-            matrix, offset, ends, is_norm, objective, _vector(y), _vector(lam),
-            _vector(geometry.stack.sides(y)), fast.accept, ROUNDS, ITERATIONS, TOLERANCES,
-        )  # fmt: skip
-        if solved[0] != kernel.SOLVED:
+        solved = fast.solve(cases, load_matrix, load_constant, y, lam, geometry.stack.sides(y))
+        if solved[0][0, 0] != kernel.SOLVED:
             return None
-    _, y, multipliers, signs, kkt, flat = solved
-    _, torsors, twists, gaps, forces, measured = kernel.answer_arrays(
-        y, multipliers, signs, sigma, scaled, load_size, *fast.answer
-    )
-    stationarity, feasibility, complementarity = kkt.tolist()
-    statics, violation, relative, rotation, energy = measured.tolist()
-    residuals = frozen_instance(
-        Residuals,
-        dict(
-            stationarity=stationarity,
-            dual_infeasibility=0.0,
-            statics=statics,
-            max_violation_m=violation,
-            max_violation_rel=relative,
-            clearance_m=fast.clearance,
-            feasibility=feasibility,
-            complementarity=complementarity,
-            closure_conditioning=prepared.geometry.conditioning,
-            largest_rotation_rad=rotation,
-            unblocked_load=share,
-        ),
-    )
+    rows, flat = solved
+    answer = fast.parts(rows[0])
+    residuals = fast.residuals(rows[0])
     if not residuals.ok():
         return None
     prepared.mechanism.cache.warm[prepared.signature] = ConeSolution(
-        y, multipliers, signs, status, iterations, True
+        answer["y"], answer["multipliers"], answer["signs"], status, iterations, True
     )
     free_motions = prepared.geometry.free_descriptions
     if flat.shape[1]:  # written when read, after the motions nothing blocks
@@ -279,13 +313,13 @@ def solve_compiled(
         free_motions = LazySequence(lambda: (*free, *notes))
     return linear_equilibrium(
         prepared,
-        torsors.reshape(-1, 6),
-        twists.reshape(-1, 6),
-        gaps,
-        forces,
-        multipliers,
+        answer["torsors"],
+        answer["twists"],
+        answer["gaps"],
+        answer["forces"],
+        answer["multipliers"],
         residuals,
-        energy,
+        float(rows[0, 11]),
         ("optimal", status, iterations, True),
         (build_time, time.perf_counter() - started),
         free_motions,

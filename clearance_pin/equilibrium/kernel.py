@@ -407,7 +407,7 @@ def _flat_directions(matrix, offset, starts, is_norm, y, multipliers, signs, tol
     return out
 
 
-@njit(cache=True)
+@njit
 def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs0, accept,
                      rounds, iterations, tolerances):  # fmt: skip
     """The verified active-set method of :func:`.kkt.active_set_solve` from a guess
@@ -511,7 +511,7 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
     return UNDECIDED, y, lam, signs, residuals, nothing
 
 
-@njit(cache=True)
+@njit
 def answer_arrays(y, multipliers, signs, sigma, scaled_gradient, load_size, x_from_y, torsor_rows,
                   twist_rows, contact_rows, contact_offsets, contact_starts, bounds, row_contact,
                   norm_force, slab_force, reactions, scale):  # fmt: skip
@@ -566,21 +566,94 @@ def answer_arrays(y, multipliers, signs, sigma, scaled_gradient, load_size, x_fr
     return x, torsors, twists, gaps, forces, measured
 
 
+SCALARS = 12  # code, sigma, load size, share, 3 KKT residuals, statics, penetration [m], over
+# the play, largest rotation, energy: the first columns of solve_cases' rows
+FLAT_FOUND = 4  # the optimum has flat directions and the caller asked for none (a batch)
+
+
+@njit(cache=True)
+def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matrix, offset,
+                starts, is_norm, y0, lam0, signs0, accept, rounds, iterations, tolerances,
+                x_from_y, torsor_rows, twist_rows, contact_rows, contact_offsets, bounds,
+                row_contact, norm_force, slab_force, reactions, scale, chain, allow_flat):  # fmt: skip
+    """Load cases (rows of ``params``, (N, 3 k)) solved in sequence: objective
+    (:func:`load_objective`), the verified optimum from the guess (y0, lambda0, sides) or, with
+    ``chain``, from the previous case's answer (:func:`verified_optimum`), the answer's arrays
+    (:func:`answer_arrays`); one compiled call for one re-solve or a whole batch.
+
+    Returns:
+        (rows (N, width): per case :data:`SCALARS` scalars then y (r), multipliers (m), sides
+        (m), x (n), torsors, twists, gaps (m), force rows; NaN after a code other than SOLVED;
+        the flat directions (r, k) of the last case solved).
+    """
+    cases = params.shape[0]
+    r = y0.size
+    m = is_norm.size
+    rows_count = offset.size
+    torsor_size = torsor_rows.shape[0]
+    twist_size = twist_rows.shape[0]
+    width = SCALARS + r + 2 * m + n + torsor_size + twist_size + m + rows_count
+    out = np.full((cases, width), np.nan)
+    flat_last = np.zeros((r, 0))
+    y_start, lam_start, signs_start = y0, lam0, signs0
+    from_guess = True  # the start is the caller's guess, not a previous case's answer
+    for k in range(cases):
+        code, objective, sigma, scaled, size, share = load_objective(
+            params[k], load_matrix, load_constant, load_rows, n, r, weights, tolerances
+        )
+        out[k, 0] = code
+        out[k, 1], out[k, 2], out[k, 3] = sigma, size, share
+        if code != SOLVED:
+            continue
+        found, y, lam, signs, kkt, flat = verified_optimum(
+            matrix, offset, starts, is_norm, objective, y_start, lam_start, signs_start, accept,
+            rounds, iterations, tolerances,
+        )  # fmt: skip
+        if found != SOLVED and not from_guess:
+            # the neighbour's contact set can be one the kernel cannot leave (it releases and
+            # adds contacts, not the primal steps of kkt.active_set_solve): from the guess again
+            found, y, lam, signs, kkt, flat = verified_optimum(
+                matrix, offset, starts, is_norm, objective, y0, lam0, signs0, accept, rounds,
+                iterations, tolerances,
+            )  # fmt: skip
+        if found != SOLVED:
+            out[k, 0] = UNDECIDED
+            continue
+        if flat.shape[1] and not allow_flat:
+            out[k, 0] = FLAT_FOUND
+            continue
+        x, torsors, twists, gaps, forces, measured = answer_arrays(
+            y, lam, signs, sigma, scaled, size, x_from_y, torsor_rows, twist_rows,
+            contact_rows, contact_offsets, starts, bounds, row_contact, norm_force, slab_force,
+            reactions, scale,
+        )  # fmt: skip
+        out[k, 4], out[k, 5], out[k, 6] = kkt[0], kkt[1], kkt[2]
+        for i in range(measured.size):
+            out[k, 7 + i] = measured[i]
+        at = SCALARS
+        for block in (y, lam, signs, x, torsors, twists, gaps, forces):
+            out[k, at : at + block.size] = block
+            at += block.size
+        flat_last = flat
+        if chain:
+            y_start, lam_start, signs_start = y, lam, signs
+            from_guess = False
+    return out, flat_last
+
+
 def warm_up() -> None:
-    """Compile (or load from numba's cache) every entry point on a tiny problem: one disc contact
-    of one unknown pair, so that no solve later pays for it."""
+    """Compile (or load from numba's cache) every entry point on a tiny problem (one disc contact
+    of one unknown pair, no load map row but the objective's), so that no solve later pays."""
     tolerances = np.array([1e-14, 1e-12, 1e-9, 1e-6, 1e-9, 1e-12])
     matrix, offset = np.eye(2), np.zeros(2)
     starts, is_norm = np.array([0, 2], dtype=np.int64), np.ones(1, dtype=np.bool_)
-    load_objective(
-        np.ones(3), np.ones((12, 3)), np.zeros(12), np.ones((4, 12)), 2, 2, np.ones(2), tolerances
-    )
-    solved = verified_optimum(
-        matrix, offset, starts, is_norm, np.array([1.0, 0.0]), np.array([-1.0, 0.0]),
-        np.array([0.5]), np.ones(1), 1e-12, 2, 6, tolerances,
-    )  # fmt: skip
-    answer_arrays(
-        solved[1], solved[2], solved[3], 1.0, np.ones(2), 1.0, np.eye(2), np.ones((6, 2)),
-        np.ones((12, 2)), np.eye(2), np.zeros(2), starts, np.ones(1), np.zeros(2, dtype=np.int64),
-        np.ones(2), np.zeros(2), np.zeros((2, 0)), np.ones(2),
+    load_rows = np.zeros((4, 12))
+    load_rows[2, 0] = 1.0  # the load's x component along the first reduced unknown
+    arguments = (np.ones((1, 3)), np.eye(12, 3), np.zeros(12), load_rows, 2, np.ones(2))
+    load_objective(arguments[0][0], *arguments[1:4], 2, 2, arguments[5], tolerances)
+    solve_cases(
+        *arguments, matrix, offset, starts, is_norm, np.array([-1.0, 0.0]), np.array([0.5]),
+        np.ones(1), 1e-12, 10, 12, tolerances, np.eye(2), np.ones((6, 2)), np.ones((12, 2)),
+        np.eye(2), np.zeros(2), np.ones(1), np.zeros(2, dtype=np.int64), np.ones(2), np.zeros(2),
+        np.zeros((2, 0)), np.ones(2), True, True,
     )  # fmt: skip
