@@ -219,28 +219,25 @@ def nominal_solution(problem, clarabel_peer):
     return None
 
 
-def compiled_floor(prepared, stack, known: ActiveSet, problems, y0, lam0) -> dict:
-    """``compiled_s``: the library's compiled kernel alone (``kernel.verified_optimum``: the
-    active-set Newton step, its verification, the flat-direction test) from the known set's
-    solution, median over ``problems``; empty when the kernel is not loaded."""
-    kernel = fast_path.compiled_kernel()
-    if kernel is None:
+def compiled_floor(prepared, stack, known: ActiveSet, loads, y0, lam0) -> dict:
+    """``compiled_s``: the library's compiled kernel alone on one load (``kernel.solve_cases``
+    with one case: the objective, the active-set Newton step from the known set's solution, its
+    verification, the flat-direction test and the answer's arrays), median over ``loads``;
+    empty when the kernel is not loaded."""
+    if fast_path.compiled_kernel() is None:
         return {}
     fast = fast_path.FastTerms(prepared)
-    matrix, offset, ends, is_norm = fast.cone
     multipliers = np.zeros(stack.count)
     multipliers[known.active] = lam0
-    signs = np.ascontiguousarray(stack.sides(y0), dtype=float)
-    start = np.ascontiguousarray(y0, dtype=float)
+    signs = stack.sides(y0)
     times, solved = [], 0
-    for problem in problems:
+    for resolved in loads:
+        params, matrix, constant = fast.load_map(resolved)
+        cases = params.reshape(1, -1)
         t0 = time.perf_counter()
-        answer = kernel.verified_optimum(
-            matrix, offset, ends, is_norm, problem.objective, start, multipliers, signs,
-            fast.accept, fast_path.ROUNDS, fast_path.ITERATIONS, fast_path.TOLERANCES,
-        )  # fmt: skip
+        rows, _ = fast.solve(cases, matrix, constant, y0, multipliers, signs)
         times.append(time.perf_counter() - t0)
-        solved += answer[0] == kernel.SOLVED
+        solved += rows[0, 0] == fast.kernel.SOLVED
     return {"compiled_s": float(np.median(times)), "compiled_verified": int(solved)}
 
 
@@ -264,6 +261,7 @@ def floor_case(
     error_of,
     rows: int = 10_000,
     repeats: int = 5,
+    loads=None,
 ) -> dict:
     """The floor of one case.
 
@@ -283,6 +281,7 @@ def floor_case(
         error_of: (vector, reference) -> (total, translation, rotation).
         rows: loads of the vectorised run (the group's loads repeated to this many).
         repeats: timed repeats of the vectorised run (median).
+        loads: per perturbed load, its resolved loads (for the compiled kernel's floor).
     """
     started = time.perf_counter()
     stack = nominal_problem.stack
@@ -350,7 +349,8 @@ def floor_case(
     if not kept:
         out["note"] = "Newton from the seed verified no perturbed load"
         return out
-    out.update(compiled_floor(prepared, stack, known, [problems[i] for i in kept], y0, lam0))
+    if loads is not None:
+        out.update(compiled_floor(prepared, stack, known, [loads[i] for i in kept], y0, lam0))
     objectives = np.array([problems[i].objective for i in kept])
     tiled = np.resize(objectives, (max(rows, len(kept)), objectives.shape[1]))
     y, _, batch_iterations, verified = newton_batch(stack, known, tiled, y0, lam0)

@@ -808,9 +808,10 @@ def floor_run(case: Case, refs: dict, settings: RunSettings) -> dict:
     mechanism = case.mechanism
     prepared = prepared_geometry(mechanism)
     columns = [prepared.joint_names.index(j) for j in case.joints]
-    problems, reduction_times = [], []
+    problems, reduction_times, resolved_loads = [], [], []
     for loads in case.perturbed:
         resolved = mechanism.resolve_loads(loads)
+        resolved_loads.append(resolved)
         started = time.perf_counter()
         problems.append(prepared.problem(resolved))
         reduction_times.append(time.perf_counter() - started)
@@ -829,6 +830,7 @@ def floor_run(case: Case, refs: dict, settings: RunSettings) -> dict:
         peers.ReducedClarabel(1e-10),
         error_of,
         rows=settings.floor_rows,
+        loads=resolved_loads,
     )
     reduced = peers.ReducedClarabel(1e-12)
     reduced.solve(nominal)  # built once
