@@ -34,7 +34,7 @@ from oracle import Oracle, bounded_loads
 import clearance_pin as cp
 from clearance_pin import Gravity, PointForce, Torque
 from clearance_pin.equilibrium.batch_kinematics import _pinocchio_placements, body_placements
-from clearance_pin.equilibrium.block_verify import SOLVER_STATUS, verify
+from clearance_pin.equilibrium.block_verify import SOLVER_STATUS, centred_problem, verify
 from clearance_pin.equilibrium.blocks import block_structure, closed_forms, reduced_unknowns
 from clearance_pin.equilibrium.load_table import body_wrenches, load_table
 from clearance_pin.equilibrium.prepared import prepared_geometry
@@ -444,8 +444,10 @@ def test_load_cases_at_one_configuration_equal_single_solves():
 
 def test_vectorised_kinematics_loads_and_gradients_equal_the_prepared_geometry():
     """The pieces of the trajectory path against the per-point ones: forward kinematics against
-    Pinocchio (revolute, prismatic and free-flyer joints of random trees), body wrenches against
-    PreparedGeometry.wrenches, gradients against the prepared problem's."""
+    Pinocchio (revolute, prismatic and free-flyer joints of random trees), body wrenches (about
+    the body origins, moved to the world origin: M + t x F) against PreparedGeometry.wrenches,
+    gradients (from the wrenches about the joint centres) against the prepared problem's and,
+    at one configuration, against the single solve's (block_verify.centred_problem)."""
     rng = np.random.default_rng(9)
     arm = cp.load(MODELS / "arm_6r.urdf")
     trajectory = [arm.q_nominal + rng.standard_normal(arm.model.nq) for _ in range(5)]
@@ -456,15 +458,24 @@ def test_vectorised_kinematics_loads_and_gradients_equal_the_prepared_geometry()
     np.testing.assert_allclose(rotations, expected[0], rtol=0, atol=1e-14)
     np.testing.assert_allclose(translations, expected[1], rtol=0, atol=1e-14)
     table = load_table(arm, cases, None)
-    wrenches = body_wrenches(table, rotations, translations, arm.model.njoints, per_case=True)
+    wrenches, moments = body_wrenches(table, rotations, translations, arm.model.njoints, True)
     gradients = tree_gradients(tree_maps(arm), rotations, translations, wrenches)
+    moved = wrenches.copy()
+    moved[..., 3:] += np.cross(translations, wrenches[..., :3])
+    np.testing.assert_allclose(moved[..., 3:], moments, rtol=1e-13, atol=1e-12)
     for k, q in enumerate(trajectory):
         prepared = prepared_geometry(arm, q)
         loads = arm.resolve_loads(cases[k])
-        np.testing.assert_allclose(wrenches[k], prepared.wrenches(loads), rtol=1e-13, atol=1e-12)
-        reference = prepared.problem(loads).gradient
+        np.testing.assert_allclose(moved[k], prepared.wrenches(loads), rtol=1e-13, atol=1e-12)
+        problem = prepared.problem(loads)
+        reference = problem.gradient
         np.testing.assert_allclose(
             gradients[k], reference, rtol=0, atol=1e-13 * np.abs(reference).max()
+        )
+        structure = block_structure(prepared.geometry, False)
+        single = centred_problem(prepared, structure, problem, loads)
+        np.testing.assert_allclose(
+            gradients[k], single.gradient, rtol=0, atol=1e-14 * np.abs(reference).max()
         )
 
     @settings(max_examples=15, deadline=None, derandomize=True)

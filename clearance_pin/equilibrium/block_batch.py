@@ -1,9 +1,10 @@
 """``solve_many`` for a tree whose joints are independent blocks (:mod:`.blocks`): every case at once.
 
 Load cases at one configuration (:func:`solve_load_cases`) and trajectories of the driven joints
-(:func:`solve_configurations`) share one path: the body wrenches of all cases
-(:mod:`.load_table`), their gradients (one matrix product at one configuration, the tree sums of
-:mod:`.tree_trajectory` along a trajectory), the closed forms of all cases, then the verification
+(:func:`solve_configurations`) share one path: the body wrenches of all cases about the body
+origins (:mod:`.load_table`), their gradients from the wrenches about each joint's own centre
+(:mod:`.tree_trajectory`: one matrix product at one configuration, the lever arms of every point
+along a trajectory), the closed forms of all cases, then the verification
 of all cases (:mod:`.block_verify`), each vectorised over the cases with numpy. Verified cases are
 kept as arrays: ``torsors(joint)``, ``ok``, ``energy`` and ``statuses`` read them, and an item is
 assembled as an :class:`~.result.Equilibrium` only when it is read. Every other case (a load on
@@ -118,10 +119,11 @@ def solve_load_cases(
     origin = prepared.configuration.oMi
     rotations = np.array([m.rotation for m in origin])[None]
     translations = np.array([m.translation for m in origin])[None]
-    wrenches = body_wrenches(table, rotations, translations, prepared.bodies, per_case=False)
-    # g = -sum_b J_b^T W_b: one product with the body twist maps of this configuration
-    gradients = wrenches.reshape(len(cases), -1) @ -np.vstack(prepared.maps.body_twist)
-    objectives = objectives_of(prepared, gradients, wrenches)
+    wrenches, moments = body_wrenches(table, rotations, translations, prepared.bodies, False)
+    # g = W G: one product with the map of this configuration (wrenches about the joint centres)
+    maps = tree_maps(mechanism, prepared.geometry)
+    gradients = tree_gradients(maps, rotations, translations, wrenches)
+    objectives = objectives_of(prepared, gradients, wrenches, moments)
     return _finish(
         mechanism,
         cases,
@@ -157,9 +159,10 @@ def solve_configurations(
         table = _repeated(one, len(cases))
     else:
         table = load_table(mechanism, [loads for loads, _ in cases], options["gravity"])
-    wrenches = body_wrenches(table, rotations, translations, prepared.bodies, per_case=True)
-    gradients = tree_gradients(tree_maps(mechanism), rotations, translations, wrenches)
-    objectives = objectives_of(prepared, gradients, wrenches)
+    wrenches, moments = body_wrenches(table, rotations, translations, prepared.bodies, True)
+    maps = tree_maps(mechanism, prepared.geometry)
+    gradients = tree_gradients(maps, rotations, translations, wrenches)
+    objectives = objectives_of(prepared, gradients, wrenches, moments)
 
     def prepared_at(i: int) -> PreparedGeometry:
         return prepared_geometry(mechanism, configurations[i])

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -31,8 +31,10 @@ from .cone_solver import acceptance
 from .kkt import StackedContacts
 from .lazy import LazySequence
 from .linear_answer import assemble_linear
+from .load_table import body_terms, centred_wrenches
 from .reduction import ReducedProblem, describe_motion
 from .residuals import DUAL_TOLERANCE, FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
+from .tree_trajectory import centre_map, tree_maps
 
 if TYPE_CHECKING:
     from .prepared import PreparedGeometry
@@ -145,6 +147,42 @@ def flat_notes(
     return LazySequence(notes)  # type: ignore[no-untyped-call]
 
 
+def centred_problem(
+    prepared: PreparedGeometry,
+    structure: BlockStructure,
+    problem: ReducedProblem,
+    loads: tuple[object, ...],
+) -> ReducedProblem | None:
+    r"""``problem`` with the gradient of ``loads`` formed from the wrenches about each joint's
+    own centre (:mod:`.tree_trajectory`: :math:`g = W G`, W the body wrenches about the body
+    origins, :func:`.load_table.centred_wrenches`), rather than from the wrenches about the
+    world origin the general path reads (:meth:`.prepared.PreparedGeometry.problem`): the same
+    gradient [J per unit], without the round-off of :math:`c \times F` subtracted from a moment
+    about the origin; f = Q^T Z g / sigma and sigma [J] follow. None when no load works."""
+    geometry = prepared.geometry
+    loaded = geometry.__dict__.get("_body_terms")
+    if loaded is None:  # the mechanism's (one tree geometry for all its configurations)
+        loaded = body_terms(prepared.mechanism)
+        object.__setattr__(geometry, "_body_terms", loaded)  # frozen: a derived, private cache
+    terms = prepared.__dict__.get("_centred")
+    if terms is None:  # per configuration: body rotations, the map G and the gravities' memo
+        placed = prepared.configuration.oMi
+        rotations = np.array([m.rotation for m in placed])
+        translations = np.array([m.translation for m in placed])
+        maps = tree_maps(prepared.mechanism, geometry)
+        terms = (rotations, centre_map(maps, rotations, translations), {})
+        prepared.__dict__["_centred"] = terms  # a derived, private cache of this configuration
+    rotations, gradient_map, memo = terms
+    wrench = centred_wrenches(loaded, rotations, loads, memo)
+    gradient = wrench.reshape(-1) @ gradient_map
+    scaled = gradient * structure.scale
+    reduced = scaled if structure.plain else scaled @ structure.basis
+    sigma = float(np.sqrt(reduced @ reduced))
+    if not sigma > 0.0:
+        return None
+    return replace(problem, gradient=gradient, objective=reduced / sigma, objective_scale=sigma)
+
+
 def closed_form_answer(
     prepared: PreparedGeometry,
     problem: ReducedProblem,
@@ -152,10 +190,15 @@ def closed_form_answer(
     started: float,
 ) -> Equilibrium | None:
     """The verified closed-form equilibrium of one load (:mod:`.blocks`), or None when the
-    closed forms do not apply to this mechanism or this load (the general path solves it)."""
+    closed forms do not apply to this mechanism or this load (the general path solves it).
+    The closed form reads the gradient about the joint centres (:func:`centred_problem`)."""
     structure = block_structure(prepared.geometry, bool(prepared.mechanism.loop_joints))
     if structure is None or not problem.objective_scale > 0.0:
         return None
+    centred = centred_problem(prepared, structure, problem, loads)
+    if centred is None:
+        return None
+    problem = centred
     gradients = problem.gradient[None, :]
     sigmas = np.array([problem.objective_scale])
     closed = closed_forms(structure, gradients, sigmas)
@@ -191,6 +234,7 @@ __all__ = [
     "RESIDUAL_NAMES",
     "SOLVER_STATUS",
     "Verification",
+    "centred_problem",
     "closed_form_answer",
     "flat_notes",
     "kkt_table",

@@ -3,15 +3,19 @@ r"""Many load cases as arrays: one row per load term on a body, and the body wre
 The loads of N cases (each a list of :class:`~clearance_pin.model.loads.PointForce`,
 ``Torque`` and ``Gravity``, resolved as :meth:`Mechanism.resolve_loads` resolves them) become rows
 (case, body, F [N], point p in the body frame [m], C [N m]), world axes; gravity is one row per
-body with mass (:math:`F = m a`, p its centre of mass). With the body placements
-:math:`(R_b, t_b)` of each case (one configuration for all, or one per case) the wrench of each
-body at the world origin is (:mod:`.load_terms`)
+body with mass (:math:`F = m a`, p its centre of mass). With the body rotations :math:`R_b` of
+each case (one configuration for all, or one per case) the wrench of each body about its own
+origin :math:`t_b` (world axes) is
 
-.. math::  W_b = \Big(\sum F,\ \sum (R_b p + t_b) \times F + C\Big) \qquad [N,\ N\,m],
+.. math::  W_b = \Big(\sum F,\ \sum (R_b p) \times F + C\Big) \qquad [N,\ N\,m],
 
-summed per case and body by one weighted count per component. A case whose loads cannot be read
-(an unknown link, not a load) is marked invalid and left to a single solve, which raises or
-reports its error.
+summed per case and body by one weighted count per component: the lever arms are the points'
+offsets :math:`R_b p` from the body origin, never their world positions, so that the moments
+about the joint centres (:mod:`.tree_trajectory`) are formed without the round-off of a moment
+about the world origin (:mod:`.load_terms` forms that one, :math:`\sum (R_b p + t_b) \times F + C`,
+for the general path). :func:`centred_wrenches` does the same for the loads of one solve. A case
+whose loads cannot be read (an unknown link, not a load) is marked invalid and left to a single
+solve, which raises or reports its error.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..model.loads import Gravity, PointForce, Torque
+from ..numerics import cross
 from .blocks import Array, Index, Mask
 
 if TYPE_CHECKING:
@@ -158,38 +163,137 @@ def _rows(vectors: list[Array]) -> Array:
 
 def body_wrenches(
     table: LoadTable, rotations: Array, translations: Array, bodies: int, per_case: bool
-) -> Array:
-    """Body wrenches at the world origin of every case, (N, bodies, 6) [N, N m] (ground row 0).
+) -> tuple[Array, Array]:
+    r"""Body wrenches about the body origins, world axes, of every case, (N, bodies, 6)
+    [N, N m] (ground row 0): :math:`(\sum F, \sum (R_b p) \times F + C)` (module docstring);
+    and their moments about the world origin, :math:`\sum (R_b p + t_b) \times F + C`
+    (N, bodies, 3) [N m], the sizes of the loads as a single solve measures them
+    (:meth:`.prepared.PreparedGeometry.objectives`).
 
     Args:
-        rotations, translations: body placements (K, bodies, 3, 3) and (K, bodies, 3), with
+        rotations, translations: body placements (K, bodies, 3, 3) and (K, bodies, 3) [m], with
             K = N (``per_case``: a trajectory) or 1 (one configuration for every case).
     """
     if per_case:
         rotation = rotations[table.case, table.body]
-        world = (rotation @ table.point[:, :, None])[:, :, 0] + translations[table.case, table.body]
+        lever = (rotation @ table.point[:, :, None])[:, :, 0]
+        origin = translations[table.case, table.body]
     else:  # one configuration: one (L_b, 3) product per loaded body
-        world = np.empty_like(table.point)
+        lever = np.empty_like(table.point)
         for body in np.unique(table.body).tolist():
             rows = table.body == body
-            world[rows] = table.point[rows] @ rotations[0, body].T + translations[0, body]
-    moment = np.cross(world, table.force) + table.torque
+            lever[rows] = table.point[rows] @ rotations[0, body].T
+        origin = translations[0, table.body]
+    moment = np.cross(lever, table.force) + table.torque
+    world = np.cross(lever + origin, table.force) + table.torque
     slots = table.case * bodies + table.body
     size = table.count * bodies
     out = np.empty((table.count, bodies, 6))
+    about = np.empty((table.count, bodies, 3))
     for k in range(3):
         out[:, :, k] = np.bincount(slots, table.force[:, k], size).reshape(table.count, bodies)
         out[:, :, 3 + k] = np.bincount(slots, moment[:, k], size).reshape(table.count, bodies)
+        about[:, :, k] = np.bincount(slots, world[:, k], size).reshape(table.count, bodies)
     if table.gravity is not None and table.weighed.size:
-        # the shared gravity, once per configuration: (m a, c x m a), c = R lever + t
+        # the shared gravity, once per configuration: (m a, (R c) x m a), c the centre of mass
         centres = (rotations[:, table.weighed] @ table.levers[:, :, None])[..., 0]
-        centres = centres + translations[:, table.weighed]
         weight = table.masses[:, None] * table.gravity
         shared = np.zeros((rotations.shape[0], bodies, 6))
         shared[:, table.weighed, :3] = weight
         shared[:, table.weighed, 3:] = np.cross(centres, weight)
         out += shared  # (1 or N, bodies, 6): broadcast over the cases at one configuration
+        moved = np.zeros((rotations.shape[0], bodies, 3))
+        moved[:, table.weighed] = np.cross(centres + translations[:, table.weighed], weight)
+        about += moved
+    return out, about
+
+
+_NEXT, _LAST = np.array([1, 2, 0]), np.array([2, 0, 1])  # (a x b)_i = a_j b_k - a_k b_j
+
+
+@dataclass(frozen=True)
+class BodyTerms:
+    """The configuration-independent terms of one solve's loads (:func:`centred_wrenches`).
+
+    Attributes:
+        masses: every body's mass (bodies,) [kg] (0 for the ground); levers: the centres of
+            mass in the body frames (bodies, 3) [m].
+        links: per link name, its body (Pinocchio joint index, 0 the ground) and the link frame
+            in the body's, :math:`(R_l, t_l)` ((3, 3), (3,) [m]).
+    """
+
+    masses: Array
+    levers: Array
+    links: dict[str, tuple[int, Array, Array]]
+
+
+def body_terms(mechanism: Mechanism) -> BodyTerms:
+    """The :class:`BodyTerms` of a mechanism (from its model's inertias and link frames)."""
+    model = mechanism.model
+    inertias = [model.inertias[b] for b in range(model.njoints)]
+    links = {}
+    for name, frame_id in mechanism.link_frames.items():
+        frame = model.frames[frame_id]
+        placement = frame.placement
+        links[name] = (
+            int(frame.parentJoint),
+            placement.rotation.copy(),
+            placement.translation.copy(),
+        )
+    masses = np.array([inertia.mass for inertia in inertias])
+    masses[0] = 0.0  # the ground does no work
+    return BodyTerms(
+        masses=masses,
+        levers=np.array([np.array(inertia.lever) for inertia in inertias]).reshape(-1, 3),
+        links=links,
+    )
+
+
+def centred_wrenches(
+    terms: BodyTerms, rotations: Array, loads: Sequence[object], memo: dict[bytes, Array]
+) -> Array:
+    r"""The body wrenches (bodies, 6) [N, N m] of one solve's loads (resolved: PointForce,
+    Torque, Gravity) about the body origins, world axes, as :func:`body_wrenches` forms them:
+    a force F at the point p of a link adds :math:`(F, (R_b (R_l p + t_l)) \times F)` to its
+    body (:math:`(R_l, t_l)` the link frame in the body's), a torque C adds (0, C), a gravity a
+    adds :math:`(m a, (R_b c) \times m a)` to every body with mass (c its centre of mass).
+
+    Args:
+        terms: the mechanism's :class:`BodyTerms`.
+        rotations: the body rotations (bodies, 3, 3) of the configuration.
+        memo: a dict kept by the caller for this configuration: the wrenches of each gravity,
+            per acceleration.
+    """
+    out = np.zeros((rotations.shape[0], 6))
+    for load in loads:
+        if isinstance(load, Gravity):
+            acceleration = np.asarray(load.acceleration, dtype=float)
+            key = acceleration.tobytes()
+            weights = memo.get(key)
+            if weights is None:  # (m a, (R_b c) x m a) on every body (0 without mass)
+                c = np.einsum("bij,bj->bi", rotations, terms.levers)  # R_b c [m]
+                w = terms.masses[:, None] * acceleration
+                turning = c[:, _NEXT] * w[:, _LAST] - c[:, _LAST] * w[:, _NEXT]  # c x w
+                weights = memo[key] = np.concatenate((w, turning), axis=1)
+            out += weights
+        elif isinstance(load, (PointForce, Torque)):
+            body, rotation, origin = terms.links[load.link]
+            if body == 0:
+                continue  # a load on the fixed ground does no work
+            if isinstance(load, PointForce):
+                out[body, :3] += load.force
+                lever = rotations[body] @ (rotation @ load.point + origin)
+                out[body, 3:] += cross(lever, load.force)
+            else:
+                out[body, 3:] += load.torque
     return out
 
 
-__all__ = ["LoadTable", "body_wrenches", "load_table"]
+__all__ = [
+    "BodyTerms",
+    "LoadTable",
+    "body_terms",
+    "body_wrenches",
+    "centred_wrenches",
+    "load_table",
+]
