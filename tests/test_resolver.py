@@ -76,3 +76,23 @@ def test_resolver_refuses_bad_values_and_loads():
         mechanism.resolver([clearance_pin.Gravity()])
     with pytest.raises(ArgumentError, match="backend"):
         mechanism.resolver(backend="fast")
+
+
+def test_resolver_refuses_complex_values():
+    resolver = clearance_pin.load(str(ROOT / "models/four_bar.urdf")).resolver()
+    with pytest.raises(ArgumentError, match="values"):
+        resolver.solve(1j * np.ones(resolver.size))
+
+
+def test_solve_many_returns_a_refused_case_in_its_place_with_the_kernel(monkeypatch):
+    """A case whose loads are refused takes its place as the error (errors="return"), on the
+    compiled batch as on the NumPy one."""
+    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "1")
+    mechanism = clearance_pin.load(str(ROOT / "models/younes_two_cylinders.urdf"))
+    base = [load for load in mechanism.loads if isinstance(load, (PointForce, Torque))]
+    mechanism.solve(base)
+    cases = [base] * 20
+    cases[7] = [*base, PointForce("no_such_link", force=(1.0, 0.0, 0.0))]
+    batch = mechanism.solve_many(cases, errors="return")
+    assert isinstance(batch[7], clearance_pin.ClearancePinError)
+    assert all(batch[i].ok for i in range(20) if i != 7)

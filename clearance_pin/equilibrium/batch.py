@@ -338,7 +338,12 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
     seed = mechanism.cache.warm.get(prepared.signature)
     if seed is None:
         return None
-    resolved = [mechanism.resolve_loads(case_loads, options["gravity"]) for case_loads, _ in cases]
+    try:
+        resolved = [
+            mechanism.resolve_loads(case_loads, options["gravity"]) for case_loads, _ in cases
+        ]
+    except ClearancePinError:
+        return None  # a case's loads are refused: the NumPy batch reports it in its place
     maps = [fast.load_map(loads) for loads in resolved[1:]]
     if not maps or any(m is None or m[1] is not maps[0][1] for m in maps):
         return None
