@@ -23,8 +23,7 @@ from .batch_newton import batched_newton, stacked_evaluation
 from .cone_solver import acceptance
 from .fast_path import fast_terms
 from .kkt import UNLOADED
-from .lazy import LazySequence
-from .linear_answer import assemble_linear, linear_equilibrium
+from .linear_answer import assemble_linear
 from .prepared import prepared_geometry
 from .reduction import loaded_problem
 from .residuals import FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
@@ -374,27 +373,13 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
 
 def _compiled_item(fast, row, loads):
     """The Equilibrium of one case of a compiled batch, assembled when first read (its flat
-    directions, if any, described then)."""
+    directions, if any, found and described then)."""
 
     def build():
-        prepared = fast.prepared
         answer = fast.parts(row)
-        flat, notes = prepared.flat_directions(answer["y"], answer["multipliers"], answer["signs"])
-        free = prepared.geometry.free_descriptions
-        return linear_equilibrium(
-            prepared,
-            answer["torsors"],
-            answer["twists"],
-            answer["gaps"],
-            answer["forces"],
-            answer["multipliers"],
-            fast.residuals(row),
-            float(row[11]),
-            ("optimal", "batched Newton (compiled)", 0, True),
-            (0.0, 0.0),
-            LazySequence(lambda: (*free, *notes)) if flat.shape[1] else free,
-            loads,
-        )
+        flat, _ = fast.prepared.flat_directions(answer["y"], answer["multipliers"], answer["signs"])
+        outcome = ("optimal", "batched Newton (compiled)", 0, True)
+        return fast.equilibrium(row, flat, loads, outcome, (0.0, 0.0), (), answer)
 
     return build
 

@@ -168,6 +168,34 @@ class FastTerms:
             for name, start, end, shape in self.layout
         }
 
+    def equilibrium(self, row, flat, loads, outcome, times, output_points=(), answer=None,
+                    residuals=None) -> Equilibrium:  # fmt: skip
+        """The :class:`~.result.Equilibrium` of one row of :meth:`solve` (``answer``,
+        ``residuals``: its :meth:`parts` and :meth:`residuals` when already read), its flat
+        directions ``flat`` (r, k) described when read; ``outcome`` and ``times`` as
+        :func:`.linear_answer.linear_equilibrium`'s."""
+        prepared = self.prepared
+        answer = self.parts(row) if answer is None else answer
+        free_motions = prepared.geometry.free_descriptions
+        if flat.shape[1]:  # written when read, after the motions nothing blocks
+            notes, free = prepared.flat_notes(flat), free_motions
+            free_motions = LazySequence(lambda: (*free, *notes))
+        return linear_equilibrium(
+            prepared,
+            answer["torsors"],
+            answer["twists"],
+            answer["gaps"],
+            answer["forces"],
+            answer["multipliers"],
+            self.residuals(row) if residuals is None else residuals,
+            float(row[self.kernel.SCALARS - 1]),
+            outcome,
+            times,
+            free_motions,
+            loads,
+            output_points,
+        )
+
     def residuals(self, row: np.ndarray) -> Residuals:
         """The measured residuals of one row of :meth:`solve`."""
         (_, _, _, share, stationarity, feasibility, complementarity, statics, violation, relative,
@@ -307,24 +335,15 @@ def solve_compiled(
     prepared.mechanism.cache.warm[prepared.signature] = ConeSolution(
         answer["y"], answer["multipliers"], answer["signs"], status, iterations, True
     )
-    free_motions = prepared.geometry.free_descriptions
-    if flat.shape[1]:  # written when read, after the motions nothing blocks
-        notes, free = prepared.flat_notes(flat), free_motions
-        free_motions = LazySequence(lambda: (*free, *notes))
-    return linear_equilibrium(
-        prepared,
-        answer["torsors"],
-        answer["twists"],
-        answer["gaps"],
-        answer["forces"],
-        answer["multipliers"],
-        residuals,
-        float(rows[0, 11]),
+    return fast.equilibrium(
+        rows[0],
+        flat,
+        loads,
         ("optimal", status, iterations, True),
         (build_time, time.perf_counter() - started),
-        free_motions,
-        loads,
         output_points,
+        answer,
+        residuals,
     )
 
 
