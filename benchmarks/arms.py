@@ -228,8 +228,11 @@ class ClosedForm:
         at configuration q."""
         model, data = self.model, self.data
         pin.framesForwardKinematics(model, data, np.asarray(q, dtype=float))
-        tool_body = model.frames[self.tool_frame].parentJoint
-        point = data.oMf[self.tool_frame].act(self.tool_point)
+        frame = model.frames[self.tool_frame]
+        tool_body = frame.parentJoint
+        # levers about each joint centre composed from body placements, (t_b - c) + R_b p_b:
+        # not from the world point minus the centre, which loses the digits both share
+        tool_lever = frame.placement.act(self.tool_point)  # in the tool body [m]
         forces = np.atleast_2d(forces)
         out = []
         for joint in self.joints:
@@ -242,16 +245,19 @@ class ClosedForm:
             frame_rotation = placement.rotation @ rotation  # clearance frame in the world
             force, moment = np.zeros((len(forces), 3)), np.zeros((len(forces), 3))
             if tool_body in subtree:
+                body = data.oMi[tool_body]
+                arm = (body.translation - centre) + body.rotation @ tool_lever
                 force += forces
-                moment += np.cross(point - centre, forces)
+                moment += np.cross(arm, forces)
             if self.gravity is not None:
-                for body in subtree:
-                    inertia = model.inertias[body]
+                for body_id in subtree:
+                    inertia = model.inertias[body_id]
                     if inertia.mass > 0.0:
                         weight = inertia.mass * self.gravity
-                        where = data.oMi[body].act(inertia.lever)
+                        body = data.oMi[body_id]
+                        arm = (body.translation - centre) + body.rotation @ inertia.lever
                         force += weight
-                        moment += np.cross(where - centre, weight)
+                        moment += np.cross(arm, weight)
             out.append((force @ frame_rotation, moment @ frame_rotation))
         return out
 
