@@ -408,6 +408,80 @@ def _flat_directions(matrix, offset, starts, is_norm, y, multipliers, signs, tol
 
 
 @njit
+def _contact_to_release(matrix, offset, starts, is_norm, objective, y, signs, contacts):
+    """:func:`.kkt._contact_to_release`: the active contact whose least-squares multiplier is most
+    negative (it pulls), else the most open one if it is not quite touching; -1 if none."""
+    if contacts.size <= 1:
+        return -1
+    values, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
+    least = _minimum_norm_solution(gradients.T.copy(), -objective)
+    lowest = np.argmin(least)
+    if least[lowest] < -1e-12:
+        return contacts[lowest]
+    most_open = np.argmin(values)
+    return contacts[most_open] if values[most_open] < -1e-14 else -1
+
+
+@njit
+def _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs, contacts, active):
+    """:func:`.kkt._step_to_next_contact`: move y in place along the load's unbalanced part,
+    tangent to the active contacts, to the first contact it meets; that contact's index, or -1
+    when no contact bounds that motion. Tangent: the right singular vectors of the active
+    gradients with singular values at most 1e-12 of the largest."""
+    r = y.size
+    _, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
+    if gradients.shape[0] < r:  # pad to square: the missing rows are zero
+        padded = np.zeros((r, r))
+        padded[: gradients.shape[0]] = gradients
+        gradients = padded
+    singular, v, _ = _singular_values(gradients)
+    top = 0.0
+    for value in singular:
+        top = max(top, value)
+    direction = np.zeros(r)
+    for c in range(r):
+        if not singular[c] > 1e-12 * top:
+            along = 0.0
+            for d in range(r):
+                along += v[d, c] * objective[d]
+            for d in range(r):
+                direction[d] -= v[d, c] * along
+    if _norm(direction) <= 1e-14:
+        return -1
+    best, reached = np.inf, -1
+    for j in range(is_norm.size):
+        if active[j]:
+            continue
+        a, b, c0 = 0.0, 0.0, 0.0
+        slope, image0 = 0.0, 0.0
+        for i in range(starts[j], starts[j + 1]):
+            image = offset[i]
+            moved = 0.0
+            for k in range(r):
+                image += matrix[i, k] * y[k]
+                moved += matrix[i, k] * direction[k]
+            a += moved * moved
+            b += image * moved
+            c0 += image * image
+            slope, image0 = moved, image
+        if is_norm[j]:
+            if a <= 0.0:
+                continue
+            t = (-b + math.sqrt(max(b * b - a * (c0 - 1.0), 0.0))) / a
+        else:
+            if slope == 0.0:
+                continue
+            t = (math.copysign(1.0, slope) - image0) / slope
+        if 0.0 <= t < best:
+            best, reached = t, j
+    if reached < 0:
+        return -1
+    for k in range(r):
+        y[k] += best * direction[k]
+    return reached
+
+
+@njit
 def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs0, accept,
                      rounds, iterations, tolerances):  # fmt: skip
     """The verified active-set method of :func:`.kkt.active_set_solve` from a guess
@@ -439,8 +513,19 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
             matrix, offset, starts, is_norm, objective, y, lam[contacts], signs, contacts,
             iterations, accept, tolerances,
         )  # fmt: skip
-        if not ok:
-            break
+        if not ok:  # an over- or under-constrained set: release a contact, or step to one
+            leaving = _contact_to_release(matrix, offset, starts, is_norm, objective, y, signs,
+                                          contacts)  # fmt: skip
+            if leaving >= 0:
+                active[leaving] = False
+                continue
+            reached = _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs,
+                                            contacts, active)  # fmt: skip
+            if reached < 0:
+                break
+            signs = _sides(matrix, offset, starts, is_norm, y)
+            active[reached] = True
+            continue
         released = False
         for a in range(contacts.size):
             if lam_active[a] < -1e-12:
