@@ -287,17 +287,15 @@ def solve_compiled(
     backend_of,
     started: float,
     output_points: tuple = (),
-    mapped: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> Equilibrium | None:
     """The verified answer by the kernel, or None (the NumPy path then solves this load).
 
     Args:
         warm: the previous solution of this structure (its contact set is tried first), or None.
         backend_of: ``problem -> (built backend, built now)`` for the cold start.
-        mapped: ``fast.load_map(loads)`` when the caller knows it (:mod:`.resolver`).
     """
     kernel = fast.kernel
-    mapped = fast.load_map(loads) if mapped is None else mapped
+    mapped = fast.load_map(loads)
     if mapped is None:
         return None
     params, load_matrix, load_constant = mapped

@@ -4,10 +4,9 @@
 the output points and the prepared geometry; ``resolver.solve(values)`` takes the new force and
 torque vectors of those loads, in their order, as one array (k, 3) or (3 k,) [N, N m] (the way a
 prebuilt optimiser takes a new cost vector) and returns the verified
-:class:`~.result.Equilibrium`, the same answer as ``mechanism.solve`` of those loads. Measured:
-with the compiled kernel loaded it costs what ``mechanism.solve`` costs (the look-ups it saves
-are a few microseconds); on the NumPy path about 40 % less (the reduced problem comes from the
-kept load map).
+:class:`~.result.Equilibrium`, the same answer as ``mechanism.solve`` of those loads, at the
+same cost (measured: the argument checks and look-ups it saves are a few microseconds); a
+convenience for a planner's loop, not a faster path.
 """
 
 from __future__ import annotations
@@ -58,7 +57,6 @@ class Resolver:
         self._points = resolve_outputs(mechanism, self.loads, outputs)
         self._prepared = prepared_geometry(mechanism, self._q)  # kept: valid while we hold it
         self._options = (tol, backend, warm_start)
-        self._kept: dict = {}
 
     def solve(self, values) -> Equilibrium:
         """The equilibrium with the force and torque vectors ``values`` ((k, 3) or (3 k,) [N,
@@ -85,7 +83,6 @@ class Resolver:
                 warm_start,
                 self._points,
                 self._prepared,
-                (vector, self._kept),
             )
         except (np.linalg.LinAlgError, OverflowError, FloatingPointError, ValueError) as exc:
             if isinstance(exc, ClearancePinError):

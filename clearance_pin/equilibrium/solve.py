@@ -36,15 +36,13 @@ def solve_linear(
     warm_start: bool = True,
     output_points: tuple = (),
     prepared: PreparedGeometry | None = None,
-    known: tuple[np.ndarray, dict] | None = None,
 ) -> Equilibrium:
     """Small-displacement equilibrium (docs/method.md sections 2 and 3) with its residuals
     measured; raises SolverError (carrying the unverified answer) when they fail.
 
     A mechanism solved before goes the compiled way first (:mod:`.fast_path`); what that does
-    not verify, and every first solve, goes the NumPy way below. ``prepared`` (the mechanism
-    prepared at ``q``) and ``known`` (see :func:`_compiled`; :mod:`.resolver`) save a re-solve
-    the look-ups."""
+    not verify, and every first solve, goes the NumPy way below. ``prepared``: the mechanism
+    prepared at ``q``, when the caller keeps it (:mod:`.resolver`)."""
     started = time.perf_counter()
     if prepared is None:
         prepared = prepared_geometry(mechanism, q)
@@ -54,7 +52,7 @@ def solve_linear(
     fast = None if closed_forms else fast_terms(prepared)
     if fast is not None:
         answer = _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, started,
-                           output_points, known)  # fmt: skip
+                           output_points)  # fmt: skip
         if answer is not None:
             return answer
     problem = prepared.problem(loads)
@@ -151,22 +149,8 @@ def solve_linear(
     return equilibrium
 
 
-def _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, started, output_points,
-              known):  # fmt: skip
-    """The compiled answer (:func:`.fast_path.solve_compiled`), warned about like any, or None.
-
-    ``known``: (the loads' force and torque vectors stacked (3 k,), a dict the caller keeps for
-    loads of one structure, where the load map is kept), or None."""
-    mapped = None
-    if known is not None:
-        values, kept = known
-        built = kept.get("map")
-        if built is None or built[0] is not fast:
-            full = fast.load_map(loads)
-            if full is None:
-                return None
-            built = kept["map"] = (fast, full[1], full[2])
-        mapped = (values, built[1], built[2])
+def _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, started, output_points):
+    """The compiled answer (:func:`.fast_path.solve_compiled`), warned about like any, or None."""
     cache = mechanism.cache
     answer = solve_compiled(
         fast,
@@ -175,7 +159,6 @@ def _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, starte
         lambda problem: backend_for(problem, backend, tol, prepared.signature, cache.backends),
         started,
         output_points,
-        mapped,
     )
     if answer is not None:
         _warn_if_inaccurate(mechanism, answer, prepared.geometry.conditioning)
