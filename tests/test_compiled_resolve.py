@@ -239,3 +239,116 @@ def test_compiled_batch_equals_single_solves(name, build, compiled):
     assert compiled_cases >= 0.8 * len(keep), f"{name}: {compiled_cases} of {len(keep)}"
     for item, i in zip(batch, keep):
         assert item.ok and len(item.free_motions) == len(expected[i].free_motions)
+
+
+@pytest.mark.parametrize("name, build", list(_mechanisms()), ids=[n for n, _ in _mechanisms()])
+def test_cold_solves_from_the_centre_equal_clarabel(name, build, monkeypatch):
+    """A cold solve (``warm_start=False``) of a built mechanism: the kernel's active-set method
+    from the centred position, no backend, answers 30 perturbed loads, and its answers equal
+    Clarabel's polished ones (the NumPy path, numba off) to 1e-11 of the play. Clarabel's
+    interior-point iterates do not share the active-set method (the polish does)."""
+    rng = np.random.default_rng(RNG_SEED + 2)
+    reference_mechanism, compiled_mechanism = build(), build()
+    base = tuple(
+        load for load in reference_mechanism.loads if isinstance(load, (PointForce, Torque))
+    )
+    loads = _perturbed(base, rng, 30)
+
+    def cold(mechanism, load):
+        try:
+            return mechanism.solve(load, warm_start=False)
+        except UnboundedLoadError:
+            return "unbounded"
+
+    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "0")
+    references = [cold(reference_mechanism, load) for load in loads]
+    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "1")
+    fast_path.load_kernel()
+    compiled_mechanism.solve(base)
+    answers = [cold(compiled_mechanism, load) for load in loads]
+    solved = [i for i, r in enumerate(references) if not isinstance(r, str)]
+    # 6.3.1: every load turned off the model's has a part along the shaft's free spin
+    play = max((c.clearance for i in solved[:1] for c in references[i].contacts), default=1.0)
+    length = compiled_mechanism.length_scale()
+    from_centre = 0
+    for reference, answer in zip(references, answers):
+        if isinstance(reference, str) or isinstance(answer, str):
+            assert reference == answer
+            continue
+        assert answer.ok and answer.polished
+        assert "clarabel" in reference.solver_status
+        from_centre += answer.solver_status == "active set from the centre (compiled)"
+        for joint, torsor in reference.torsors.items():
+            difference = answer.torsors[joint] - torsor
+            assert np.abs(difference[:3]).max() <= AGREEMENT * play, (name, joint)
+            assert np.abs(difference[3:]).max() * length <= AGREEMENT * play, (name, joint)
+    assert from_centre >= 0.9 * len(solved), f"{name}: {from_centre} of {len(solved)}"
+
+
+def test_a_named_backend_finds_the_cold_answer(compiled):
+    """backend="clarabel" on a cold solve: the backend answers (the kernel polishes it), not
+    the kernel's start from the centre."""
+    mechanism = clearance_pin.load(str(ROOT / "models/four_bar.urdf"))
+    mechanism.solve()
+    answer = mechanism.solve(warm_start=False, backend="clarabel")
+    assert answer.solver_status.startswith("clarabel") and answer.ok
+    assert mechanism.solve(warm_start=False).solver_status == (
+        "active set from the centre (compiled)"
+    )
+
+
+def test_active_set_method_from_the_centre_does_not_cycle():
+    """Case 6.1.6.1b of [Y]: from the centre, Newton on two of the three bearings' contacts moves
+    the shaft outside the third; adding it at that point gave the set's other KKT point (the
+    third contact pulling), releasing it gave the first point again: a cycle (the kernel
+    verified 49 of 200 loads from the centre). Moving only to where the third contact is met
+    ends it. Both writings (kernel,
+    kkt.active_set_solve) reach the same verified optimum from the centre on 40 loads."""
+    from clearance_pin.equilibrium.kkt import active_set_solve
+    from clearance_pin.equilibrium.prepared import prepared_geometry
+
+    case = next(
+        c
+        for c in tomllib.loads((ROOT / "validation/younes2013_cases.toml").read_text())["case"]
+        if c["id"] == "6.1.6.1b"
+    )
+    mechanism = _younes().build(case)
+    base = tuple(load for load in mechanism.loads if isinstance(load, (PointForce, Torque)))
+    prepared = prepared_geometry(mechanism)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("CLEARANCE_PIN_COMPILED", "1")
+        fast_path.load_kernel()
+        mechanism.solve(base)
+        fast = fast_path.fast_terms(prepared)
+    count = fast.cone[3].size
+    for loads in _perturbed(base, np.random.default_rng(RNG_SEED + 3), 40):
+        resolved = mechanism.resolve_loads(loads)
+        params, matrix, constant = fast.load_map(resolved)
+        rows, _ = fast.solve_cold(params.reshape(1, -1), matrix, constant)
+        assert rows[0, 0] == kernel.SOLVED and rows[0, kernel.START] == kernel.FROM_CENTRE
+        problem = prepared.problem(resolved)
+        numpy_answer = active_set_solve(
+            problem.stack, problem.objective, np.zeros(fast.size), np.zeros(count),
+            rounds=fast.centre_rounds,
+        )  # fmt: skip
+        assert numpy_answer is not None
+        y = fast.parts(rows[0])["y"]
+        assert np.abs(numpy_answer[0] - y).max() <= 1e-12
+
+
+def test_gram_schmidt_pieces_against_lapack():
+    """kernel._row_basis spans the rows' space (its projector equals the SVD's) and
+    kernel._least_squares_forces is numpy.linalg.lstsq's minimum-norm solution, for independent
+    and dependent rows."""
+    rng = np.random.default_rng(4)
+    for rows, columns, rank in ((3, 5, 3), (5, 5, 5), (4, 6, 2), (2, 4, 1)):
+        gradients = rng.standard_normal((rows, rank)) @ rng.standard_normal((rank, columns))
+        basis, _, found, independent = kernel._row_basis(gradients, 1e-12)
+        assert found == rank and independent == (rank == rows)
+        vt = np.linalg.svd(gradients)[2]
+        span = vt[:rank]
+        assert np.allclose(basis[:found].T @ basis[:found], span.T @ span, atol=1e-12)
+        objective = rng.standard_normal(columns)
+        expected = np.linalg.lstsq(gradients.T, -objective, rcond=None)[0]
+        assert np.allclose(kernel._least_squares_forces(gradients, objective), expected,
+                           atol=1e-10)  # fmt: skip

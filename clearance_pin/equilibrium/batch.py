@@ -21,7 +21,7 @@ from ..errors import ClearancePinError
 from ..progress import Progress
 from .batch_newton import batched_newton, stacked_evaluation
 from .cone_solver import acceptance
-from .fast_path import fast_terms
+from .fast_path import WARM_ROUNDS, fast_terms
 from .kkt import UNLOADED
 from .linear_answer import assemble_linear
 from .prepared import prepared_geometry
@@ -348,7 +348,14 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
         return None
     params = np.array([m[0] for m in maps]).reshape(len(maps), -1)
     rows, _ = fast.solve(
-        params, maps[0][1], maps[0][2], seed.y, seed.multipliers, seed.signs, chain=True
+        params,
+        maps[0][1],
+        maps[0][2],
+        seed.y,
+        seed.multipliers,
+        seed.signs,
+        chain=True,
+        warm_rounds=WARM_ROUNDS,
     )
     x_column = next(start for name, start, _, _ in fast.layout if name == "x")
     x_all = np.full((len(cases), prepared.size_x), np.nan)

@@ -39,8 +39,10 @@ TOLERANCES = np.array(
     [POLISH_TOL, PROXIMAL, UNLOADED, ACTIVE_GAP, UNBOUNDED_FRACTION, ROUND_OFF_WORK]
 )
 # active-set rounds and Newton iterations (kkt.active_set_solve's): compiled, a round costs about
-# a microsecond, so a warm start gets as many as the polish of a backend's answer
-ROUNDS, ITERATIONS = 10, 12
+# a microsecond. A re-solve's guess (the previous answer) gets WARM_ROUNDS, then the centred
+# start gets ROUNDS plus CENTRE_ROUNDS_PER_CONTACT per contact (it adds contacts one by one); the
+# polish of a backend's answer gets ROUNDS
+ROUNDS, WARM_ROUNDS, CENTRE_ROUNDS_PER_CONTACT, ITERATIONS = 10, 3, 3, 12
 LOAD_MAPS_KEPT = 64  # sets of loaded points kept per configuration
 
 COMPILE_AFTER = 2000  # re-solves of a process after which the kernel's load (about 1 s) pays
@@ -132,6 +134,7 @@ class FastTerms:
         )
         self.clearance = float(terms.bounds.max(initial=0.0))
         self.accept = acceptance(prepared.geometry.conditioning)
+        self.centre_rounds = ROUNDS + CENTRE_ROUNDS_PER_CONTACT * stack.count
         self.load_maps: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         # the columns of solve_cases' rows after its scalars (kernel.solve_cases)
         m, joints, bodies = stack.count, len(terms.joint_names), prepared.bodies
@@ -151,14 +154,22 @@ class FastTerms:
             at += size
 
     def solve(self, cases, load_matrix, load_constant, y, multipliers, signs, chain=False,
-              allow_flat=True):  # fmt: skip
+              allow_flat=True, warm_rounds=ROUNDS, centre=True):  # fmt: skip
         """kernel.solve_cases on the load cases ``cases`` (N, 3 k) from the guess (y,
-        multipliers, slab sides): (rows (N, width), flat directions of the last case)."""
+        multipliers, slab sides) in ``warm_rounds`` rounds (0: no guess), else from the centre
+        (``centre`` False: not): (rows (N, width), flat directions of the last case)."""
         return self.kernel.solve_cases(
             cases, load_matrix, load_constant, self.load_rows, self.prepared.size_x, self.weights,
-            *self.cone, _vector(y), _vector(multipliers), _vector(signs), self.accept, ROUNDS,
-            ITERATIONS, TOLERANCES, *self.answer, chain, allow_flat,
+            *self.cone, _vector(y), _vector(multipliers), _vector(signs), self.accept,
+            warm_rounds, self.centre_rounds if centre else 0, ITERATIONS, TOLERANCES,
+            *self.answer, chain, allow_flat,
         )  # fmt: skip
+
+    def solve_cold(self, cases, load_matrix, load_constant):
+        """:meth:`solve` from the centre alone (no guess)."""
+        count = self.cone[3].size
+        return self.solve(cases, load_matrix, load_constant, np.zeros(self.size), np.zeros(count),
+                          np.ones(count), warm_rounds=0)  # fmt: skip
 
     def parts(self, row: np.ndarray) -> dict[str, np.ndarray]:
         """The arrays of one row of :meth:`solve` (views): y, multipliers, signs, x, torsors
@@ -188,7 +199,7 @@ class FastTerms:
             answer["forces"],
             answer["multipliers"],
             self.residuals(row) if residuals is None else residuals,
-            float(row[self.kernel.SCALARS - 1]),
+            float(row[self.kernel.ENERGY]),
             outcome,
             times,
             free_motions,
@@ -199,7 +210,7 @@ class FastTerms:
     def residuals(self, row: np.ndarray) -> Residuals:
         """The measured residuals of one row of :meth:`solve`."""
         (_, _, _, share, stationarity, feasibility, complementarity, statics, violation, relative,
-         rotation, _) = row[: self.kernel.SCALARS].tolist()  # fmt: skip
+         rotation) = row[: self.kernel.ENERGY].tolist()  # fmt: skip
         return frozen_instance(
             Residuals,
             {
@@ -287,12 +298,16 @@ def solve_compiled(
     backend_of,
     started: float,
     output_points: tuple = (),
+    from_centre: bool = True,
 ) -> Equilibrium | None:
     """The verified answer by the kernel, or None (the NumPy path then solves this load).
 
     Args:
         warm: the previous solution of this structure (its contact set is tried first), or None.
-        backend_of: ``problem -> (built backend, built now)`` for the cold start.
+        backend_of: ``problem -> (built backend, built now)``: the backend's answer is polished
+            when the kernel's own starts do not verify.
+        from_centre: the kernel's active-set method from the centred position may answer (False:
+            a backend the caller named finds the cold answer).
     """
     kernel = fast.kernel
     mapped = fast.load_map(loads)
@@ -301,13 +316,20 @@ def solve_compiled(
     params, load_matrix, load_constant = mapped
     prepared = fast.prepared
     cases = params.reshape(1, -1)
-    status, iterations, build_time = "warm Newton (compiled)", 0, 0.0
-    solved = None
+    iterations, build_time = 0, 0.0
+    code, status = kernel.UNDECIDED, ""
     if warm is not None and warm.y.shape == (fast.size,):
-        solved = fast.solve(cases, load_matrix, load_constant, warm.y, warm.multipliers, warm.signs)
-        if solved[0][0, 0] in (kernel.UNBOUNDED, kernel.NO_WORK):
-            return None  # the NumPy path raises or answers "indeterminate"
-    if solved is None or solved[0][0, 0] != kernel.SOLVED:
+        solved = fast.solve(cases, load_matrix, load_constant, warm.y, warm.multipliers,
+                            warm.signs, warm_rounds=WARM_ROUNDS, centre=from_centre)  # fmt: skip
+        code = solved[0][0, 0]
+    elif from_centre:
+        solved = fast.solve_cold(cases, load_matrix, load_constant)
+        code = solved[0][0, 0]
+    if code in (kernel.UNBOUNDED, kernel.NO_WORK):
+        return None  # the NumPy path raises or answers "indeterminate"
+    if code == kernel.SOLVED:
+        status = STARTS[solved[0][0, kernel.START]]
+    else:
         code, objective, sigma, scaled, load_size, share = kernel.load_objective(
             params, load_matrix, load_constant, fast.load_rows, prepared.size_x, fast.size,
             fast.weights, TOLERANCES,
@@ -343,6 +365,14 @@ def solve_compiled(
         answer,
         residuals,
     )
+
+
+# solver_status by the start that verified (kernel.FROM_GUESS, FROM_NEIGHBOUR, FROM_CENTRE)
+STARTS = {
+    0.0: "warm Newton (compiled)",
+    1.0: "warm Newton (compiled)",
+    2.0: "active set from the centre (compiled)",
+}
 
 
 def _vector(values) -> np.ndarray:

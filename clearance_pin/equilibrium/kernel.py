@@ -360,6 +360,65 @@ def _surely_full_rank(rows, rtol):
 
 
 @njit
+def _row_basis(gradients, rtol):
+    r"""Modified Gram-Schmidt on the rows g_a of ``gradients`` (k, r), each orthogonalised twice
+    (accurate to round-off): (Q (k, r), its first ``rank`` rows an orthonormal basis of the rows'
+    span, R (k, k) with :math:`g_a = \sum_b R_{ba} q_b`, rank, independent). A row left with less
+    than ``rtol`` of the largest row's norm adds nothing to the basis (independent False)."""
+    k, r = gradients.shape
+    basis = np.zeros((k, r))
+    coefficients = np.zeros((k, k))
+    largest = 0.0
+    for a in range(k):
+        largest = max(largest, _norm(gradients[a]))
+    rank = 0
+    independent = True
+    for a in range(k):
+        q = gradients[a].copy()
+        for _ in range(2):
+            for b in range(rank):
+                along = 0.0
+                for c in range(r):
+                    along += basis[b, c] * q[c]
+                coefficients[b, a] += along
+                for c in range(r):
+                    q[c] -= along * basis[b, c]
+        size = _norm(q)
+        if size > rtol * largest and size > 0.0:
+            for c in range(r):
+                basis[rank, c] = q[c] / size
+            coefficients[rank, a] = size
+            rank += 1
+        else:
+            independent = False
+    return basis, coefficients, rank, independent
+
+
+@njit
+def _least_squares_forces(gradients, objective):
+    r"""The minimum-norm least-squares solution of :math:`G^T \lambda = -f` (numpy.linalg.lstsq's):
+    from the Gram-Schmidt factors when the rows of G are independent to 1e-10 (back
+    substitution :math:`R \lambda = -Q f`), else by the Jacobi SVD."""
+    basis, coefficients, _, independent = _row_basis(gradients, 1e-10)
+    if not independent:
+        return _minimum_norm_solution(gradients.T.copy(), -objective)
+    k, r = gradients.shape
+    right = np.empty(k)
+    for b in range(k):
+        along = 0.0
+        for c in range(r):
+            along -= basis[b, c] * objective[c]
+        right[b] = along
+    forces = np.empty(k)
+    for a in range(k - 1, -1, -1):
+        total = right[a]
+        for b in range(a + 1, k):
+            total -= coefficients[a, b] * forces[b]
+        forces[a] = total / coefficients[a, a]
+    return forces
+
+
+@njit
 def _flat_directions(matrix, offset, starts, is_norm, y, multipliers, signs, tolerances):
     """:meth:`.prepared.PreparedGeometry.flat_directions`: an orthonormal basis (r, k) of the
     directions along which the optimum is not unique (G_loaded d = 0 and Hessian d = 0, to 1e-9
@@ -414,7 +473,7 @@ def _contact_to_release(matrix, offset, starts, is_norm, objective, y, signs, co
     if contacts.size <= 1:
         return -1
     values, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
-    least = _minimum_norm_solution(gradients.T.copy(), -objective)
+    least = _least_squares_forces(gradients, objective)
     lowest = np.argmin(least)
     if least[lowest] < -1e-12:
         return contacts[lowest]
@@ -426,28 +485,37 @@ def _contact_to_release(matrix, offset, starts, is_norm, objective, y, signs, co
 def _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs, contacts, active):
     """:func:`.kkt._step_to_next_contact`: move y in place along the load's unbalanced part,
     tangent to the active contacts, to the first contact it meets; that contact's index, or -1
-    when no contact bounds that motion. Tangent: the right singular vectors of the active
-    gradients with singular values at most 1e-12 of the largest."""
+    when no contact bounds that motion. Tangent: orthogonal to the active gradients (their
+    Gram-Schmidt basis; a gradient left with 1e-12 of the largest's norm adds nothing, as a
+    singular value below 1e-12 of the largest did in an SVD, at a tenth of its cost)."""
     r = y.size
     _, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
-    if gradients.shape[0] < r:  # pad to square: the missing rows are zero
-        padded = np.zeros((r, r))
-        padded[: gradients.shape[0]] = gradients
-        gradients = padded
-    singular, v, _ = _singular_values(gradients)
-    top = 0.0
-    for value in singular:
-        top = max(top, value)
-    direction = np.zeros(r)
-    for c in range(r):
-        if not singular[c] > 1e-12 * top:
+    basis, _, rank, _ = _row_basis(gradients, 1e-12)
+    direction = -objective.copy()
+    for _ in range(2):  # twice: the projection orthogonal to the span to round-off
+        for b in range(rank):
             along = 0.0
-            for d in range(r):
-                along += v[d, c] * objective[d]
-            for d in range(r):
-                direction[d] -= v[d, c] * along
+            for c in range(r):
+                along += basis[b, c] * direction[c]
+            for c in range(r):
+                direction[c] -= along * basis[b, c]
     if _norm(direction) <= 1e-14:
         return -1
+    best, reached = _first_contact_along(matrix, offset, starts, is_norm, y, direction, active,
+                                         np.inf)  # fmt: skip
+    if reached < 0:
+        return -1
+    for k in range(r):
+        y[k] += best * direction[k]
+    return reached
+
+
+@njit
+def _first_contact_along(matrix, offset, starts, is_norm, y, direction, active, limit):
+    """(t, j): the first contact j outside ``active`` that y + t direction meets, 0 <= t <
+    ``limit`` (ball, disc: the larger root of |image + t moved|^2 = 1; slab: its side's plane);
+    (inf, -1) when none does."""
+    r = y.size
     best, reached = np.inf, -1
     for j in range(is_norm.size):
         if active[j]:
@@ -472,13 +540,22 @@ def _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs, 
             if slope == 0.0:
                 continue
             t = (math.copysign(1.0, slope) - image0) / slope
-        if 0.0 <= t < best:
+        if 0.0 <= t < best and t < limit:
             best, reached = t, j
-    if reached < 0:
-        return -1
-    for k in range(r):
-        y[k] += best * direction[k]
-    return reached
+    return best, reached
+
+
+@njit
+def _multiplier_estimate(matrix, offset, starts, is_norm, objective, y, signs, contacts):
+    r"""Newton's starting multipliers of ``contacts`` at y: the least-squares solution of the
+    stationarity :math:`G_A^T \lambda = -f` (minimum norm), negative values set to zero. The new
+    load's own estimate, not the previous answer's multipliers: from those, Newton diverged on a
+    load turned by 17 degrees (the multiplier of a lightly loaded contact crossed zero)."""
+    _, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
+    least = _least_squares_forces(gradients, objective)
+    for a in range(least.size):
+        least[a] = max(least[a], 0.0)
+    return least
 
 
 @njit
@@ -507,11 +584,21 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
     nothing = np.zeros((r, 0))
     for _ in range(rounds):
         contacts = np.flatnonzero(active)
-        if contacts.size == 0:
-            break
+        if contacts.size == 0:  # nothing touches (a cold start): move along the load to a contact
+            reached = _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs,
+                                            contacts, active)  # fmt: skip
+            if reached < 0:
+                break
+            signs = _sides(matrix, offset, starts, is_norm, y)
+            active[reached] = True
+            continue
+        start = lam[contacts]
+        if not start.max() > 0.0:  # no multiplier known (a cold start): the load's estimate
+            start = _multiplier_estimate(matrix, offset, starts, is_norm, objective, y, signs,
+                                         contacts)  # fmt: skip
         ok, y_new, lam_active, gradients = _newton(
-            matrix, offset, starts, is_norm, objective, y, lam[contacts], signs, contacts,
-            iterations, accept, tolerances,
+            matrix, offset, starts, is_norm, objective, y, start, signs, contacts, iterations,
+            accept, tolerances,
         )  # fmt: skip
         if not ok:  # an over- or under-constrained set: release a contact, or step to one
             leaving = _contact_to_release(matrix, offset, starts, is_norm, objective, y, signs,
@@ -526,6 +613,8 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
             signs = _sides(matrix, offset, starts, is_norm, y)
             active[reached] = True
             continue
+        for a in range(contacts.size):  # the next round's Newton starts from these
+            lam[contacts[a]] = max(lam_active[a], 0.0)
         released = False
         for a in range(contacts.size):
             if lam_active[a] < -1e-12:
@@ -538,17 +627,30 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
         violated = False
         for j in range(count):
             if phi_new[j] > bar:
-                active[j] = True
                 violated = True
         if violated:
-            signs = _sides(matrix, offset, starts, is_norm, y_new)
+            # move towards y_new only as far as the first contact it meets, which joins the set:
+            # from y itself Newton finds y_new again (a cycle), and from y_new, outside that
+            # contact, it can converge to the set's other KKT point, the contact pulling
+            step = y_new - y
+            t, reached = _first_contact_along(matrix, offset, starts, is_norm, y, step, active,
+                                              1.0)  # fmt: skip
+            if reached >= 0:
+                for k in range(r):
+                    y[k] += t * step[k]
+                active[reached] = True
+            else:  # y itself outside a contact (round-off): every violated contact joins
+                for j in range(count):
+                    if phi_new[j] > bar:
+                        active[j] = True
+            signs = _sides(matrix, offset, starts, is_norm, y)
             continue
         # the forces are unique when the active gradients are independent; otherwise the
         # minimum-norm set balancing the load, when no force of it pulls (kkt's
         # _minimum_norm_forces: statically indeterminate contacts share the load evenly)
         forces = lam_active
         independent = contacts.size <= r
-        if independent:
+        if independent and not _surely_full_rank(gradients.T.copy(), 1e-10):
             singular, _, _ = _singular_values(gradients.T.copy())
             low, high = np.inf, 0.0
             for value in singular:
@@ -651,20 +753,27 @@ def answer_arrays(y, multipliers, signs, sigma, scaled_gradient, load_size, x_fr
     return x, torsors, twists, gaps, forces, measured
 
 
-SCALARS = 12  # code, sigma, load size, share, 3 KKT residuals, statics, penetration [m], over
-# the play, largest rotation, energy: the first columns of solve_cases' rows
+# the first columns of solve_cases' rows: code, sigma, load size, share, 3 KKT residuals,
+# statics, penetration [m], over the play, largest rotation, energy, the start that verified
+ENERGY, START, SCALARS = 11, 12, 13
 FLAT_FOUND = 4  # the optimum has flat directions and the caller asked for none (a batch)
+# START: the caller's guess, the previous case's answer (chain), the centred position
+FROM_GUESS, FROM_NEIGHBOUR, FROM_CENTRE = 0, 1, 2
 
 
 @njit(cache=True)
 def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matrix, offset,
-                starts, is_norm, y0, lam0, signs0, accept, rounds, iterations, tolerances,
-                x_from_y, torsor_rows, twist_rows, contact_rows, contact_offsets, bounds,
-                row_contact, norm_force, slab_force, reactions, scale, chain, allow_flat):  # fmt: skip
+                starts, is_norm, y0, lam0, signs0, accept, warm_rounds, rounds, iterations,
+                tolerances, x_from_y, torsor_rows, twist_rows, contact_rows, contact_offsets,
+                bounds, row_contact, norm_force, slab_force, reactions, scale, chain,
+                allow_flat):  # fmt: skip
     """Load cases (rows of ``params``, (N, 3 k)) solved in sequence: objective
-    (:func:`load_objective`), the verified optimum from the guess (y0, lambda0, sides) or, with
-    ``chain``, from the previous case's answer (:func:`verified_optimum`), the answer's arrays
-    (:func:`answer_arrays`); one compiled call for one re-solve or a whole batch.
+    (:func:`load_objective`), the verified optimum (:func:`verified_optimum`) in ``warm_rounds``
+    active-set rounds from the guess (y0, lambda0, sides) or, with ``chain``, from the previous
+    case's answer, else in ``rounds`` rounds from the centred position y = 0 with no contact (a
+    primal active-set method: along the load to the first contact, then Newton, release and
+    add), the answer's arrays (:func:`answer_arrays`); one compiled call for one re-solve or a
+    whole batch. ``warm_rounds`` 0: from the centre only (a cold solve).
 
     Returns:
         (rows (N, width): per case :data:`SCALARS` scalars then y (r), multipliers (m), sides
@@ -681,7 +790,10 @@ def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matri
     out = np.full((cases, width), np.nan)
     flat_last = np.zeros((r, 0))
     y_start, lam_start, signs_start = y0, lam0, signs0
-    from_guess = True  # the start is the caller's guess, not a previous case's answer
+    start = FROM_GUESS
+    centre = np.zeros(r)
+    no_force = np.zeros(m)
+    centre_sides = _sides(matrix, offset, starts, is_norm, centre)
     for k in range(cases):
         code, objective, sigma, scaled, size, share = load_objective(
             params[k], load_matrix, load_constant, load_rows, n, r, weights, tolerances
@@ -690,17 +802,21 @@ def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matri
         out[k, 1], out[k, 2], out[k, 3] = sigma, size, share
         if code != SOLVED:
             continue
-        found, y, lam, signs, kkt, flat = verified_optimum(
-            matrix, offset, starts, is_norm, objective, y_start, lam_start, signs_start, accept,
-            rounds, iterations, tolerances,
-        )  # fmt: skip
-        if found != SOLVED and not from_guess:
-            # the neighbour's contact set can be one the kernel cannot leave (it releases and
-            # adds contacts, not the primal steps of kkt.active_set_solve): from the guess again
+        found = UNDECIDED
+        used = FROM_CENTRE
+        if warm_rounds > 0:
             found, y, lam, signs, kkt, flat = verified_optimum(
-                matrix, offset, starts, is_norm, objective, y0, lam0, signs0, accept, rounds,
-                iterations, tolerances,
+                matrix, offset, starts, is_norm, objective, y_start, lam_start, signs_start,
+                accept, warm_rounds, iterations, tolerances,
             )  # fmt: skip
+            used = start
+        if found != SOLVED:
+            # a far guess's contact set can be one the rounds do not leave: from the centre
+            found, y, lam, signs, kkt, flat = verified_optimum(
+                matrix, offset, starts, is_norm, objective, centre, no_force, centre_sides,
+                accept, rounds, iterations, tolerances,
+            )  # fmt: skip
+            used = FROM_CENTRE
         if found != SOLVED:
             out[k, 0] = UNDECIDED
             continue
@@ -715,6 +831,7 @@ def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matri
         out[k, 4], out[k, 5], out[k, 6] = kkt[0], kkt[1], kkt[2]
         for i in range(measured.size):
             out[k, 7 + i] = measured[i]
+        out[k, START] = used
         at = SCALARS
         for block in (y, lam, signs, x, torsors, twists, gaps, forces):
             out[k, at : at + block.size] = block
@@ -722,7 +839,7 @@ def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matri
         flat_last = flat
         if chain:
             y_start, lam_start, signs_start = y, lam, signs
-            from_guess = False
+            start = FROM_NEIGHBOUR
     return out, flat_last
 
 
@@ -738,7 +855,7 @@ def warm_up() -> None:
     load_objective(arguments[0][0], *arguments[1:4], 2, 2, arguments[5], tolerances)
     solve_cases(
         *arguments, matrix, offset, starts, is_norm, np.array([-1.0, 0.0]), np.array([0.5]),
-        np.ones(1), 1e-12, 10, 12, tolerances, np.eye(2), np.ones((6, 2)), np.ones((12, 2)),
+        np.ones(1), 1e-12, 3, 10, 12, tolerances, np.eye(2), np.ones((6, 2)), np.ones((12, 2)),
         np.eye(2), np.zeros(2), np.ones(1), np.zeros(2, dtype=np.int64), np.ones(2), np.zeros(2),
         np.zeros((2, 0)), np.ones(2), True, True,
     )  # fmt: skip

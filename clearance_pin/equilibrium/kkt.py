@@ -326,10 +326,22 @@ def active_set_solve(
     active = np.flatnonzero((phi > -ACTIVE_GAP) | (multipliers > 1e-9 * largest))
     lam = multipliers.copy()
     for _ in range(rounds):
-        if active.size == 0:
-            return None
+        if active.size == 0:  # nothing touches (a start from the centre): along the load
+            stepped = _step_to_next_contact(stack, objective, y, signs, active)
+            if stepped is None:
+                return None
+            y, added = stepped
+            signs = stack.sides(y)
+            active = np.array([added])
+            continue
+        start = lam
+        if not lam[active].max() > 0.0:  # no multiplier known: the load's least-squares estimate
+            _, gradients = stack.evaluate(y, signs)
+            start = lam.copy()
+            least = np.linalg.lstsq(gradients[active].T, -objective, rcond=None)[0]
+            start[active] = np.maximum(least, 0.0)
         solved = newton(
-            stack, objective, y, lam, signs, active, iterations=iterations, accept=accept
+            stack, objective, y, start, signs, active, iterations=iterations, accept=accept
         )
         if solved is None:
             released = _contact_to_release(stack, objective, y, signs, active)
@@ -344,6 +356,7 @@ def active_set_solve(
             active = np.union1d(active, [added])
             continue
         y_new, lam_active, gradients = solved
+        lam[active] = np.maximum(lam_active, 0.0)  # the next round's Newton starts from these
         negative = active[lam_active < -1e-12]
         if negative.size:
             active = np.setdiff1d(active, negative)
@@ -351,8 +364,16 @@ def active_set_solve(
         phi_new = stack.values(y_new, None)
         violated = np.flatnonzero(phi_new > max(1e-13, accept))
         if violated.size:
-            signs = stack.sides(y_new)
-            active = np.union1d(active, violated)
+            # towards y_new only as far as the first contact it meets, which joins the set: from
+            # y Newton finds y_new again (a cycle), from y_new, outside that contact, it can
+            # reach the set's other KKT point, the contact pulling (as the compiled kernel)
+            t, reached = _first_contact_along(stack, y, y_new - y, active, 1.0)
+            if reached is None:  # y itself outside a contact (round-off)
+                active = np.union1d(active, violated)
+            else:
+                y = y + t * (y_new - y)
+                active = np.union1d(active, [reached])
+            signs = stack.sides(y)
             continue
         lam_new = np.zeros(stack.count)
         lam_new[active] = _minimum_norm_forces(gradients, objective, lam_active)
@@ -404,6 +425,16 @@ def _step_to_next_contact(stack: StackedContacts, objective, y, signs, active):
     direction = -tangent @ (tangent.T @ objective)
     if np.linalg.norm(direction) <= 1e-14:
         return None
+    best, reached = _first_contact_along(stack, y, direction, active, np.inf)
+    if reached is None:
+        return None
+    return y + best * direction, reached
+
+
+def _first_contact_along(stack: StackedContacts, y, direction, active, limit: float):
+    """(t, j): the first contact j outside ``active`` that y + t direction meets, 0 <= t <
+    ``limit`` (ball, disc: the larger root of |image + t moved|^2 = 1; slab: its side's plane);
+    (inf, None) when none does."""
     image = stack.matrix @ y + stack.offset
     image_d = stack.matrix @ direction
     best, reached = np.inf, None
@@ -421,8 +452,6 @@ def _step_to_next_contact(stack: StackedContacts, objective, y, signs, active):
             if slope == 0.0:
                 continue
             t = (np.sign(slope) - image[rows][0]) / slope
-        if 0.0 <= t < best:
-            best, reached = t, j
-    if reached is None:
-        return None
-    return y + best * direction, int(reached)
+        if 0.0 <= t < best and t < limit:
+            best, reached = float(t), int(j)
+    return best, reached

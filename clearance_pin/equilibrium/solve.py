@@ -159,6 +159,7 @@ def _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, starte
         lambda problem: backend_for(problem, backend, tol, prepared.signature, cache.backends),
         started,
         output_points,
+        from_centre=backend == "auto",
     )
     if answer is not None:
         _warn_if_inaccurate(mechanism, answer, prepared.geometry.conditioning)
