@@ -352,3 +352,32 @@ def test_gram_schmidt_pieces_against_lapack():
         expected = np.linalg.lstsq(gradients.T, -objective, rcond=None)[0]
         assert np.allclose(kernel._least_squares_forces(gradients, objective), expected,
                            atol=1e-10)  # fmt: skip
+
+
+def test_load_cases_gathers_the_vectors_of_one_structure(compiled):
+    """FastTerms.load_cases: the force and torque vectors of cases with the first case's loaded
+    points, as load_map gives them one by one; None when a case moves a point or adds a load
+    (solve_many then takes its NumPy batch, whose answers equal single solves)."""
+    from clearance_pin.equilibrium.prepared import prepared_geometry
+
+    mechanism = clearance_pin.load(str(ROOT / "models/four_bar.urdf"))
+    base = tuple(load for load in mechanism.loads if isinstance(load, (PointForce, Torque)))
+    mechanism.solve(base)
+    fast = fast_path.fast_terms(prepared_geometry(mechanism))
+    cases = [mechanism.resolve_loads(c) for c in _perturbed(base, np.random.default_rng(5), 6)]
+    params, matrix, constant = fast.load_cases(cases)
+    singles = [fast.load_map(c) for c in cases]
+    assert np.array_equal(params, np.array([s[0] for s in singles]))
+    assert matrix is singles[0][1] and constant is singles[0][2]
+    force = next(load for load in base if isinstance(load, PointForce))
+    moved = PointForce(force.link, force=force.force, point=force.point + 1e-3)
+    mixed = [*cases, mechanism.resolve_loads((moved,))]
+    assert fast.load_cases(mixed) is None
+    batch = mechanism.solve_many([base, *[(moved,)] * 3, *cases[:3]])
+    play, length = max(c.clearance for c in batch[0].contacts), mechanism.length_scale()
+    for item, loads in zip(batch, [base, *[(moved,)] * 3, *cases[:3]]):
+        single = mechanism.solve(loads)
+        for joint, torsor in single.torsors.items():
+            difference = item.torsors[joint] - torsor
+            assert np.abs(difference[:3]).max() <= AGREEMENT * play
+            assert np.abs(difference[3:]).max() * length <= AGREEMENT * play

@@ -343,14 +343,14 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
         ]
     except ClearancePinError:
         return None  # a case's loads are refused: the NumPy batch reports it in its place
-    maps = [fast.load_map(loads) for loads in resolved[1:]]
-    if not maps or any(m is None or m[1] is not maps[0][1] for m in maps):
+    mapped = fast.load_cases(resolved[1:])
+    if mapped is None:
         return None
-    params = np.array([m[0] for m in maps]).reshape(len(maps), -1)
+    params, load_matrix, load_constant = mapped
     rows, _ = fast.solve(
         params,
-        maps[0][1],
-        maps[0][2],
+        load_matrix,
+        load_constant,
         seed.y,
         seed.multipliers,
         seed.signs,
@@ -359,19 +359,18 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
     )
     x_column = next(start for name, start, _, _ in fast.layout if name == "x")
     x_all = np.full((len(cases), prepared.size_x), np.nan)
-    batched = np.zeros(len(cases), dtype=bool)
     statics, violation = rows[:, 7], rows[:, 9]
     good = (
         (rows[:, 0] == fast.kernel.SOLVED)
         & (statics <= STATICS_TOLERANCE)
         & (violation <= FEASIBILITY_TOLERANCE)
     )
+    x_all[1:][good] = rows[good, x_column : x_column + prepared.size_x]
+    batched = np.concatenate([[False], good])
     items: list = [first]
-    for k, row in enumerate(rows):
-        if good[k]:
-            items.append(_compiled_item(fast, row, resolved[k + 1]))
-            x_all[k + 1] = row[x_column : x_column + prepared.size_x]
-            batched[k + 1] = True
+    for k, verified in enumerate(good.tolist()):
+        if verified:
+            items.append(_compiled_item(fast, rows[k], resolved[k + 1]))
         else:
             items.append(_solve_chunk(mechanism, [cases[k + 1]], options, errors)[0])
     torsor_maps = {name: prepared.maps.joint_torsor[name] for name in mechanism.joints}

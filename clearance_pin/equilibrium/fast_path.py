@@ -254,6 +254,44 @@ class FastTerms:
         params = np.concatenate(vectors) if vectors else np.zeros(0)
         return params, built[0], built[1]
 
+    def load_cases(self, cases) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """:meth:`load_map` of many load cases at once: (P (N, 3 k), A, w0) when every case has
+        the first case's loads (kinds, links, points, gravity) with other force and torque
+        vectors; None otherwise."""
+        if not cases:
+            return None
+        mapped = self.load_map(cases[0])
+        if mapped is None:
+            return None
+        first = cases[0]
+        size = len(first)
+        kinds = [type(load) for load in first]
+        links = [getattr(load, "link", None) for load in first]
+        fixed = [
+            load.point.tobytes() if kind is PointForce else
+            load.acceleration.tobytes() if kind is Gravity else None
+            for load, kind in zip(first, kinds)
+        ]  # fmt: skip
+        vectors = []
+        for loads in cases:
+            if len(loads) != size:
+                return None
+            for load, kind, link, known in zip(loads, kinds, links, fixed):
+                if type(load) is not kind:
+                    return None
+                if kind is PointForce:
+                    if load.link != link or load.point.tobytes() != known:
+                        return None
+                    vectors.append(load.force)
+                elif kind is Torque:
+                    if load.link != link:
+                        return None
+                    vectors.append(load.torque)
+                elif load.acceleration.tobytes() != known:
+                    return None
+        params = np.array(vectors, dtype=float).reshape(len(cases), -1)
+        return params, mapped[1], mapped[2]
+
     def _build_load_map(self, loads) -> tuple[np.ndarray, np.ndarray]:
         """A column per component of a force or torque (the wrench of that unit load alone;
         the wrench is linear in it) and w0 the wrench of the gravity loads."""
