@@ -231,13 +231,17 @@ class Mechanism:
 
     def length_scale(self) -> float:
         """Characteristic length [m]: the larger of the largest distance of a joint origin from
-        the root at the nominal configuration and the largest journal or block length of a joint
-        with play (1 m when both are 0; an ideal joint's length is only a placeholder)."""
+        the root at the nominal configuration (tree joints and both frames of every loop joint)
+        and the largest journal or block length of a joint with play (1 m when both are 0; an
+        ideal joint's length is only a placeholder)."""
         if not hasattr(self, "_length_scale"):
             data = self.model.createData()
             pin.forwardKinematics(self.model, data, self.q_nominal)
             pin.updateFramePlacements(self.model, data)
-            extent = max((float(np.linalg.norm(m.translation)) for m in data.oMi), default=0.0)
+            origins = [*data.oMi]
+            for loop in self.loop_joints:  # a shaft's further bearings are loop joints
+                origins += [data.oMf[loop.frame_a], data.oMf[loop.frame_b]]
+            extent = max((float(np.linalg.norm(m.translation)) for m in origins), default=0.0)
             lengths = [
                 j.clearance.length for j in self.joints.values() if j.clearance.max_play > 0.0
             ]
