@@ -136,7 +136,8 @@ def test_the_model_is_copied():
     before = mechanism.solve().torsor("pin_B")
     model.jointPlacements[2] = pin.SE3(np.eye(3), np.array([0.07, 0.0, 0.0]))
     assert mechanism.model is not model
-    np.testing.assert_array_equal(mechanism.solve().torsor("pin_B"), before)
+    # the second solve may take the compiled path: equal to round-off (the edit moves pin_B mm)
+    np.testing.assert_allclose(mechanism.solve().torsor("pin_B"), before, rtol=1e-12, atol=1e-18)
 
 
 def test_an_ideal_model_without_clearances():

@@ -32,6 +32,8 @@ UNDECIDED = 1  # the NumPy path decides
 UNBOUNDED = 2  # the load works along a motion nothing blocks (the NumPy path raises)
 NO_WORK = 3  # no load works on any admissible motion (the NumPy path answers "indeterminate")
 
+BOUNDARY_STEP = 0.25  # a boundary step moves an active ball's or disc's image by this share of it
+
 # indices into the tolerances array (its values are the NumPy path's constants, see fast_path.py)
 POLISH, PROXIMAL, UNLOADED, ACTIVE_GAP, UNBOUNDED_FRACTION, ROUND_OFF_WORK = range(6)
 
@@ -511,6 +513,86 @@ def _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs, 
 
 
 @njit
+def _step_along_boundary(matrix, offset, starts, is_norm, objective, y, signs, contacts, active):
+    r""":func:`_step_to_next_contact` for the start from the centre, where the parts travel far:
+    the tangent step leaves a curved (ball, disc) contact of the set by the square of its
+    length, so a step moves no active contact's image by more than :data:`BOUNDARY_STEP` of its
+    radius and y then returns onto the set's contacts (minimum-norm Gauss-Newton on
+    :math:`\phi_A(y) = 0`): a walk along the boundary. The contact reached, -2 when the step
+    was capped (y moved, no contact met), -1 when no contact bounds the motion."""
+    r = y.size
+    _, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
+    basis, _, rank, _ = _row_basis(gradients, 1e-12)
+    direction = -objective.copy()
+    for _ in range(2):
+        for b in range(rank):
+            along = 0.0
+            for c in range(r):
+                along += basis[b, c] * direction[c]
+            for c in range(r):
+                direction[c] -= along * basis[b, c]
+    if _norm(direction) <= 1e-14:
+        return -1
+    cap = np.inf
+    for a in range(contacts.size):
+        j = contacts[a]
+        if not is_norm[j]:
+            continue
+        moved = 0.0
+        for i in range(starts[j], starts[j + 1]):
+            along = 0.0
+            for c in range(r):
+                along += matrix[i, c] * direction[c]
+            moved += along * along
+        if moved > 0.0:
+            cap = min(cap, BOUNDARY_STEP / math.sqrt(moved))
+    best, reached = _first_contact_along(matrix, offset, starts, is_norm, y, direction, active,
+                                         np.inf)  # fmt: skip
+    if reached < 0 and cap == np.inf:
+        return -1
+    if best > cap:
+        best, reached = cap, -2
+    for k in range(r):
+        y[k] += best * direction[k]
+    _restore(matrix, offset, starts, is_norm, y, signs, contacts)
+    phi = _phi_abs(matrix, offset, starts, is_norm, y)
+    worst = 1e-12  # a contact the walk passed (touching where it starts, or met on the way back)
+    for j in range(is_norm.size):
+        if not active[j] and phi[j] > worst:
+            worst, reached = phi[j], j
+    return reached
+
+
+@njit
+def _restore(matrix, offset, starts, is_norm, y, signs, contacts):
+    r"""y moved in place back onto the contacts' surfaces, :math:`\phi_A(y) = 0`, by at most 8
+    minimum-norm Gauss-Newton steps :math:`\delta = -G_A^+ \phi_A` (Gram-Schmidt factors
+    :math:`G_A = R^T Q`: forward substitution :math:`R^T z = -\phi_A`, :math:`\delta = Q^T z`;
+    left where it is when the gradients are dependent)."""
+    r = y.size
+    k = contacts.size
+    for _ in range(8):
+        values, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
+        largest = 0.0
+        for value in values:
+            largest = max(largest, abs(value))
+        if largest <= 1e-15:
+            return
+        basis, coefficients, _, independent = _row_basis(gradients, 1e-10)
+        if not independent:
+            return
+        z = np.empty(k)
+        for a in range(k):
+            total = -values[a]
+            for b in range(a):
+                total -= coefficients[b, a] * z[b]
+            z[a] = total / coefficients[a, a]
+        for a in range(k):
+            for c in range(r):
+                y[c] += z[a] * basis[a, c]
+
+
+@njit
 def _first_contact_along(matrix, offset, starts, is_norm, y, direction, active, limit):
     """(t, j): the first contact j outside ``active`` that y + t direction meets, 0 <= t <
     ``limit`` (ball, disc: the larger root of |image + t moved|^2 = 1; slab: its side's plane);
@@ -560,7 +642,7 @@ def _multiplier_estimate(matrix, offset, starts, is_norm, objective, y, signs, c
 
 @njit
 def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs0, accept,
-                     rounds, iterations, tolerances):  # fmt: skip
+                     rounds, iterations, tolerances, primal=False):  # fmt: skip
     """The verified active-set method of :func:`.kkt.active_set_solve` from a guess
     (y0, lambda0, slab sides), then the flat directions, the minimum-norm point along them.
 
@@ -593,7 +675,7 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
             active[reached] = True
             continue
         start = lam[contacts]
-        if not start.max() > 0.0:  # no multiplier known (a cold start): the load's estimate
+        if primal or not start.max() > 0.0:  # from the centre, or none known: the estimate
             start = _multiplier_estimate(matrix, offset, starts, is_norm, objective, y, signs,
                                          contacts)  # fmt: skip
         ok, y_new, lam_active, gradients = _newton(
@@ -606,12 +688,25 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
             if leaving >= 0:
                 active[leaving] = False
                 continue
-            reached = _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs,
-                                            contacts, active)  # fmt: skip
-            if reached < 0:
+            if primal:
+                reached = _step_along_boundary(matrix, offset, starts, is_norm, objective, y,
+                                               signs, contacts, active)  # fmt: skip
+            else:
+                reached = _step_to_next_contact(matrix, offset, starts, is_norm, objective, y,
+                                                signs, contacts, active)  # fmt: skip
+            if reached == -1 and primal:
+                # nowhere to go: the contacts touching here join (a point where more contacts
+                # touch than a set of independent ones holds: they share the load)
+                phi = _phi_abs(matrix, offset, starts, is_norm, y)
+                for j in range(count):
+                    if not active[j] and phi[j] > -1e-9:
+                        active[j] = True
+                        reached = j
+            if reached == -1:
                 break
             signs = _sides(matrix, offset, starts, is_norm, y)
-            active[reached] = True
+            if reached >= 0:
+                active[reached] = True
             continue
         for a in range(contacts.size):  # the next round's Newton starts from these
             lam[contacts[a]] = max(lam_active[a], 0.0)
@@ -814,7 +909,7 @@ def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matri
             # a far guess's contact set can be one the rounds do not leave: from the centre
             found, y, lam, signs, kkt, flat = verified_optimum(
                 matrix, offset, starts, is_norm, objective, centre, no_force, centre_sides,
-                accept, rounds, iterations, tolerances,
+                accept, rounds, iterations, tolerances, True,
             )  # fmt: skip
             used = FROM_CENTRE
         if found != SOLVED:
