@@ -222,7 +222,8 @@ def _newton(matrix, offset, starts, is_norm, objective, y, lam, signs, contacts,
         size_now = 0.0
         for value in residual:
             size_now += value * value
-        if size_now < converged or (previous < 1e-12 and size_now <= accept * accept):
+        # as kkt.newton: converged, or one step after a residual below 1e-8 (round-off left)
+        if size_now < converged or (previous < 1e-16 and size_now <= accept * accept):
             return True, y, lam, gradients
         previous = size_now
         if iteration == iterations or (iteration >= 6 and size_now > 1e-8):
