@@ -8,7 +8,7 @@ backend's answer for a cold solve) and computes the answer's arrays; Python buil
 Whatever the kernel does not verify goes the NumPy way (:mod:`.solve`), which handles every case.
 
 Loading the kernel costs about a second (numba's import and its cache; the first time on a
-machine, compiling: about 40 s on a 2-core machine), and it saves about 0.3 ms per re-solve, so it
+machine, compiling: about a minute on a 2-core machine), and it saves about 0.3 ms per re-solve, so it
 loads only where it pays: after :data:`COMPILE_AFTER` re-solves in one process (a planner), or
 when asked (:func:`load_kernel`, at a planner's start-up); never at import, on a first solve or in
 a script of a few hundred solves. ``CLEARANCE_PIN_COMPILED=0`` switches it off, ``=1`` loads it
