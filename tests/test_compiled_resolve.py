@@ -85,6 +85,15 @@ def _perturbed(loads, rng, count):
     return out
 
 
+def _assert_agree(answer, reference, play, length):
+    """Every joint torsor of ``answer`` equals ``reference``'s to AGREEMENT of the play
+    (rotations times the length scale)."""
+    for joint, torsor in reference.torsors.items():
+        difference = answer.torsors[joint] - torsor
+        assert np.abs(difference[:3]).max() <= AGREEMENT * play, joint
+        assert np.abs(difference[3:]).max() * length <= AGREEMENT * play, joint
+
+
 def _outcome(mechanism, loads):
     try:
         return mechanism.solve(loads)
@@ -117,10 +126,7 @@ def test_compiled_answers_equal_the_numpy_path(name, build, monkeypatch):
             continue
         assert answer.ok and answer.polished
         by_kernel += "(compiled" in answer.solver_status
-        for joint, torsor in reference.torsors.items():
-            difference = answer.torsors[joint] - torsor
-            assert np.abs(difference[:3]).max() <= AGREEMENT * play, (name, joint)
-            assert np.abs(difference[3:]).max() * length <= AGREEMENT * play, (name, joint)
+        _assert_agree(answer, reference, play, length)
         assert [c.active for c in answer.contacts] == [c.active for c in reference.contacts]
         assert answer.residuals["stationarity"] <= 1e-12
         assert answer.residuals["statics"] <= 1e-9
@@ -278,10 +284,7 @@ def test_cold_solves_from_the_centre_equal_clarabel(name, build, monkeypatch):
         assert answer.ok and answer.polished
         assert "clarabel" in reference.solver_status
         from_centre += answer.solver_status == "active set from the centre (compiled)"
-        for joint, torsor in reference.torsors.items():
-            difference = answer.torsors[joint] - torsor
-            assert np.abs(difference[:3]).max() <= AGREEMENT * play, (name, joint)
-            assert np.abs(difference[3:]).max() * length <= AGREEMENT * play, (name, joint)
+        _assert_agree(answer, reference, play, length)
     assert from_centre >= 0.9 * len(solved), f"{name}: {from_centre} of {len(solved)}"
 
 
@@ -377,10 +380,7 @@ def test_load_cases_gathers_the_vectors_of_one_structure(compiled):
     play, length = max(c.clearance for c in batch[0].contacts), mechanism.length_scale()
     for item, loads in zip(batch, [base, *[(moved,)] * 3, *cases[:3]]):
         single = mechanism.solve(loads)
-        for joint, torsor in single.torsors.items():
-            difference = item.torsors[joint] - torsor
-            assert np.abs(difference[:3]).max() <= AGREEMENT * play
-            assert np.abs(difference[3:]).max() * length <= AGREEMENT * play
+        _assert_agree(item, single, play, length)
 
 
 def test_the_centre_start_walks_along_the_boundary(compiled):
@@ -404,8 +404,5 @@ def test_the_centre_start_walks_along_the_boundary(compiled):
         reference = mechanism.solve(loads, warm_start=False, backend="clarabel")
         assert answer.ok and reference.solver_status.startswith("clarabel")
         from_centre += answer.solver_status == "active set from the centre (compiled)"
-        for joint, torsor in reference.torsors.items():
-            difference = answer.torsors[joint] - torsor
-            assert np.abs(difference[:3]).max() <= AGREEMENT * play, joint
-            assert np.abs(difference[3:]).max() * length <= AGREEMENT * play, joint
+        _assert_agree(answer, reference, play, length)
     assert from_centre >= 36, f"{from_centre} of 40 from the centre"

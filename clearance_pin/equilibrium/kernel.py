@@ -485,6 +485,24 @@ def _contact_to_release(matrix, offset, starts, is_norm, objective, y, signs, co
 
 
 @njit
+def _unbalanced_motion(matrix, offset, starts, is_norm, objective, y, signs, contacts):
+    """-f projected orthogonally to the gradients of ``contacts`` at y (their Gram-Schmidt
+    basis, applied twice: orthogonal to round-off): the motion along which the load is not held."""
+    r = y.size
+    _, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
+    basis, _, rank, _ = _row_basis(gradients, 1e-12)
+    direction = -objective.copy()
+    for _ in range(2):
+        for b in range(rank):
+            along = 0.0
+            for c in range(r):
+                along += basis[b, c] * direction[c]
+            for c in range(r):
+                direction[c] -= along * basis[b, c]
+    return direction
+
+
+@njit
 def _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs, contacts, active):
     """:func:`.kkt._step_to_next_contact`: move y in place along the load's unbalanced part,
     tangent to the active contacts, to the first contact it meets; that contact's index, or -1
@@ -492,16 +510,7 @@ def _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs, 
     Gram-Schmidt basis; a gradient left with 1e-12 of the largest's norm adds nothing, as a
     singular value below 1e-12 of the largest did in an SVD, at a tenth of its cost)."""
     r = y.size
-    _, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
-    basis, _, rank, _ = _row_basis(gradients, 1e-12)
-    direction = -objective.copy()
-    for _ in range(2):  # twice: the projection orthogonal to the span to round-off
-        for b in range(rank):
-            along = 0.0
-            for c in range(r):
-                along += basis[b, c] * direction[c]
-            for c in range(r):
-                direction[c] -= along * basis[b, c]
+    direction = _unbalanced_motion(matrix, offset, starts, is_norm, objective, y, signs, contacts)
     if _norm(direction) <= 1e-14:
         return -1
     best, reached = _first_contact_along(matrix, offset, starts, is_norm, y, direction, active,
@@ -522,16 +531,7 @@ def _step_along_boundary(matrix, offset, starts, is_norm, objective, y, signs, c
     :math:`\phi_A(y) = 0`): a walk along the boundary. The contact reached, -2 when the step
     was capped (y moved, no contact met), -1 when no contact bounds the motion."""
     r = y.size
-    _, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
-    basis, _, rank, _ = _row_basis(gradients, 1e-12)
-    direction = -objective.copy()
-    for _ in range(2):
-        for b in range(rank):
-            along = 0.0
-            for c in range(r):
-                along += basis[b, c] * direction[c]
-            for c in range(r):
-                direction[c] -= along * basis[b, c]
+    direction = _unbalanced_motion(matrix, offset, starts, is_norm, objective, y, signs, contacts)
     if _norm(direction) <= 1e-14:
         return -1
     cap = np.inf
