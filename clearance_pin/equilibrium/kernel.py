@@ -646,6 +646,9 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
                      rounds, iterations, tolerances, primal=False):  # fmt: skip
     """The verified active-set method of :func:`.kkt.active_set_solve` from a guess
     (y0, lambda0, slab sides), then the flat directions, the minimum-norm point along them.
+    ``primal`` (the start from the centre): Newton from the least-squares multipliers, steps
+    along the boundary (:func:`_step_along_boundary`), and where no step is left the contacts
+    touching there join.
 
     Returns:
         (code, y, multipliers (m,), signs (m,), KKT residuals (stationarity, feasibility,
