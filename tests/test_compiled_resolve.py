@@ -94,31 +94,39 @@ def _assert_agree(answer, reference, play, length):
         assert np.abs(difference[3:]).max() * length <= AGREEMENT * play, joint
 
 
-def _outcome(mechanism, loads):
+def _outcome(mechanism, loads, **options):
     try:
-        return mechanism.solve(loads)
+        return mechanism.solve(loads, **options)
     except UnboundedLoadError:
         return "unbounded"
+
+
+def _both_paths(build, count, seed, monkeypatch, **options):
+    """``count`` perturbed loads of a mechanism solved in sequence by two instances, the NumPy
+    path (numba off) and the compiled one (after a first solve of the model's load):
+    (references, answers, play [m] (1 when every load is unbounded), length scale [m])."""
+    reference_mechanism, compiled_mechanism = build(), build()
+    base = tuple(
+        load for load in reference_mechanism.loads if isinstance(load, (PointForce, Torque))
+    )
+    loads = _perturbed(base, np.random.default_rng(seed), count)
+    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "0")
+    references = [_outcome(reference_mechanism, load, **options) for load in loads]
+    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "1")
+    fast_path.load_kernel()
+    compiled_mechanism.solve(base)
+    answers = [_outcome(compiled_mechanism, load, **options) for load in loads]
+    solved = [r for r in references if not isinstance(r, str)]
+    # 6.3.1: every load turned off the model's has a part along the shaft's free spin
+    play = max((c.clearance for r in solved[:1] for c in r.contacts), default=1.0)
+    return references, answers, play, compiled_mechanism.length_scale()
 
 
 @pytest.mark.parametrize("name, build", list(_mechanisms()), ids=[n for n, _ in _mechanisms()])
 def test_compiled_answers_equal_the_numpy_path(name, build, monkeypatch):
     """Paper cases and bundled loop models: over 40 perturbed loads solved in sequence, the
     compiled re-solve gives the NumPy path's answer to 1e-11 of the play."""
-    rng = np.random.default_rng(RNG_SEED)
-    reference_mechanism, compiled_mechanism = build(), build()
-    base = tuple(
-        load for load in reference_mechanism.loads if isinstance(load, (PointForce, Torque))
-    )
-    loads = _perturbed(base, rng, 40)
-    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "0")
-    references = [_outcome(reference_mechanism, load) for load in loads]
-    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "1")
-    fast_path.load_kernel()
-    compiled_mechanism.solve(base)
-    answers = [_outcome(compiled_mechanism, load) for load in loads]
-    play = max(c.clearance for c in references[0].contacts) if references[0] != "unbounded" else 1
-    length = compiled_mechanism.length_scale()
+    references, answers, play, length = _both_paths(build, 40, RNG_SEED, monkeypatch)
     by_kernel = 0
     for reference, answer in zip(references, answers):
         if isinstance(reference, str) or isinstance(answer, str):
@@ -253,29 +261,10 @@ def test_cold_solves_from_the_centre_equal_clarabel(name, build, monkeypatch):
     from the centred position, no backend, answers 30 perturbed loads, and its answers equal
     Clarabel's polished ones (the NumPy path, numba off) to 1e-11 of the play. Clarabel's
     interior-point iterates do not share the active-set method (the polish does)."""
-    rng = np.random.default_rng(RNG_SEED + 2)
-    reference_mechanism, compiled_mechanism = build(), build()
-    base = tuple(
-        load for load in reference_mechanism.loads if isinstance(load, (PointForce, Torque))
+    references, answers, play, length = _both_paths(
+        build, 30, RNG_SEED + 2, monkeypatch, warm_start=False
     )
-    loads = _perturbed(base, rng, 30)
-
-    def cold(mechanism, load):
-        try:
-            return mechanism.solve(load, warm_start=False)
-        except UnboundedLoadError:
-            return "unbounded"
-
-    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "0")
-    references = [cold(reference_mechanism, load) for load in loads]
-    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "1")
-    fast_path.load_kernel()
-    compiled_mechanism.solve(base)
-    answers = [cold(compiled_mechanism, load) for load in loads]
-    solved = [i for i, r in enumerate(references) if not isinstance(r, str)]
-    # 6.3.1: every load turned off the model's has a part along the shaft's free spin
-    play = max((c.clearance for i in solved[:1] for c in references[i].contacts), default=1.0)
-    length = compiled_mechanism.length_scale()
+    solved = [r for r in references if not isinstance(r, str)]
     from_centre = 0
     for reference, answer in zip(references, answers):
         if isinstance(reference, str) or isinstance(answer, str):
