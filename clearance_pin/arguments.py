@@ -150,7 +150,10 @@ def check_solve_many(
         if isinstance(loads, (*LOAD_TYPES, str, bytes, dict)) or not isinstance(loads, Iterable):
             raise ArgumentError("loads", "a list of load cases (each a list of loads)", loads)
         if isinstance(loads, Sequence):  # not consuming an iterator
+            plain = (list, tuple, type(None))  # a case of these needs no closer look
             for index, case in enumerate(loads):
+                if type(case) in plain:
+                    continue
                 if isinstance(case, LOAD_TYPES):
                     raise ArgumentError(
                         f"loads[{index}]",

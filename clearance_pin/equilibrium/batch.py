@@ -110,7 +110,49 @@ class EquilibriumBatch(Sequence):
         return [type(r).__name__ if isinstance(r, Exception) else r.solver_status for r in self]
 
 
-def _cases(mechanism, loads, configurations) -> list[tuple]:
+class Cases(Sequence):
+    """The cases of :func:`solve_many` as two columns, read as (loads, configuration) pairs.
+
+    Attributes:
+        loads: the load cases (None: the model's loads in every case).
+        configurations: the configurations as float arrays (None: the nominal one in every case).
+
+    The columns are kept as given: pairing 1e5 cases up front would allocate 1e5 tuples and wake
+    the garbage collector over every load object of the batch (a tenth of a second).
+    """
+
+    def __init__(self, loads: Sequence | None, configurations: list | None, count: int):
+        self.loads, self.configurations, self._count = loads, configurations, count
+
+    def __len__(self) -> int:
+        return self._count
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return Cases(
+                None if self.loads is None else self.loads[index],
+                None if self.configurations is None else self.configurations[index],
+                len(range(*index.indices(self._count))),
+            )
+        if not -self._count <= index < self._count:
+            raise IndexError(index)
+        return (
+            None if self.loads is None else self.loads[index],
+            None if self.configurations is None else self.configurations[index],
+        )
+
+    def __iter__(self):
+        none = itertools.repeat(None, self._count)
+        loads = none if self.loads is None else self.loads
+        configurations = none if self.configurations is None else self.configurations
+        return zip(loads, configurations)
+
+    def load_column(self) -> Sequence:
+        """Every case's loads (None: the model's)."""
+        return [None] * self._count if self.loads is None else self.loads
+
+
+def _cases(mechanism, loads, configurations) -> Cases:
     if loads is not None and not isinstance(loads, Sequence):
         loads = list(loads)
     if configurations is not None:
@@ -123,10 +165,7 @@ def _cases(mechanism, loads, configurations) -> list[tuple]:
             f"{len(configurations)} configurations"
         )
     count = len(loads) if loads is not None else len(configurations)
-    return [
-        (None if loads is None else loads[i], None if configurations is None else configurations[i])
-        for i in range(count)
-    ]
+    return Cases(loads, configurations, count)
 
 
 def _solve_chunk(mechanism, cases, options: dict, errors: str, progress=None) -> list:

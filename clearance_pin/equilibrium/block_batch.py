@@ -14,14 +14,14 @@ that cannot be read) is solved alone by :meth:`Mechanism.solve`, in order.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import ClearancePinError
-from .batch import EquilibriumBatch
+from .batch import Cases, EquilibriumBatch
 from .batch_kinematics import body_placements
 from .block_verify import RESIDUAL_NAMES, SOLVER_STATUS, flat_notes, verify
 from .blocks import (
@@ -44,8 +44,7 @@ if TYPE_CHECKING:
     from ..progress import Progress
     from .result import Equilibrium
 
-Case = tuple[Any, Any]  # (loads or None, configuration or None), as batch._cases pairs them
-CHUNK = 2048  # cases per vectorised pass (its arrays stay in the cache)
+CHUNK = 1024  # cases per vectorised pass (its arrays stay in the cache)
 
 
 class BlockBatch(EquilibriumBatch):
@@ -105,7 +104,7 @@ def _structure(mechanism: Mechanism) -> tuple[PreparedGeometry, BlockStructure] 
 
 def solve_load_cases(
     mechanism: Mechanism,
-    cases: Sequence[Case],
+    cases: Cases,
     options: dict[str, Any],
     errors: str,
     progress: Progress,
@@ -115,7 +114,7 @@ def solve_load_cases(
     if found is None:
         return None
     prepared, structure = found
-    table = load_table(mechanism, [loads for loads, _ in cases], options["gravity"])
+    table = load_table(mechanism, cases.load_column(), options["gravity"])
     origin = prepared.configuration.oMi
     rotations = np.array([m.rotation for m in origin])[None]
     translations = np.array([m.translation for m in origin])[None]
@@ -140,7 +139,7 @@ def solve_load_cases(
 
 def solve_configurations(
     mechanism: Mechanism,
-    cases: Sequence[Case],
+    cases: Cases,
     options: dict[str, Any],
     errors: str,
     progress: Progress,
@@ -153,12 +152,12 @@ def solve_configurations(
     prepared, structure = found
     configurations = [prepared.configuration.q if q is None else q for _, q in cases]
     rotations, translations = body_placements(mechanism, configurations)
-    shared = all(loads is None for loads, _ in cases)
+    shared = all(loads is None for loads in cases.load_column())
     if shared:  # one load table, repeated (the loads are the same at every point)
         one = load_table(mechanism, [None], options["gravity"])
         table = _repeated(one, len(cases))
     else:
-        table = load_table(mechanism, [loads for loads, _ in cases], options["gravity"])
+        table = load_table(mechanism, cases.load_column(), options["gravity"])
     wrenches, moments = body_wrenches(table, rotations, translations, prepared.bodies, True)
     maps = tree_maps(mechanism, prepared.geometry)
     gradients = tree_gradients(maps, rotations, translations, wrenches)
@@ -183,7 +182,7 @@ def solve_configurations(
 
 def solve_blocks(
     mechanism: Mechanism,
-    cases: Sequence[Case],
+    cases: Cases,
     along: bool,
     options: dict[str, Any],
     errors: str,
@@ -215,7 +214,7 @@ def _repeated(table: LoadTable, count: int) -> LoadTable:
 
 def _finish(
     mechanism: Mechanism,
-    cases: Sequence[Case],
+    cases: Cases,
     options: dict[str, Any],
     errors: str,
     progress: Progress,

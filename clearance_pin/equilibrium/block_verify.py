@@ -67,9 +67,12 @@ def kkt_table(
     stack: StackedContacts = prepared.geometry.stack
     image = y @ stack.matrix.T  # + o: zero for a tree (blocks.block_structure)
     squares = (image * image) @ structure.row_sums  # the stack's rows and contacts
-    phi = np.where(stack.is_norm, squares, np.abs(image[:, stack.starts])) - 1.0  # either side
-    weights = np.where(stack.row_is_norm, 2.0 * image, signs[:, stack.row_contact])
-    pull = (multipliers[:, stack.row_contact] * weights) @ stack.matrix
+    # column gathers by np.take (C-ordered: a [:, index] gather is not, and slows every
+    # product after it) and selections by masks (np.where over broadcast masks is slower)
+    norm, row_norm = stack.is_norm, stack.row_is_norm
+    phi = squares * norm + np.abs(np.take(image, stack.starts, axis=1)) * ~norm - 1.0
+    weights = image * (2.0 * row_norm) + np.take(signs, stack.row_contact, axis=1) * ~row_norm
+    pull = (np.take(multipliers, stack.row_contact, axis=1) * weights) @ stack.matrix
     table = np.stack(
         [
             np.abs(objectives + pull).max(axis=1, initial=0.0),
@@ -109,8 +112,8 @@ def verify(
     rows = terms.contact_of_row
     x_image = x @ terms.contact_rows.T  # + offsets: zero for a tree
     gaps = prepared.bounds - np.sqrt((x_image * x_image) @ structure.row_sums)
-    forces = (sigmas[:, None] * multipliers[:, rows]) * (
-        terms.norm_force * x_image + terms.slab_force * signs[:, rows]
+    forces = (sigmas[:, None] * np.take(multipliers, rows, axis=1)) * (
+        terms.norm_force * x_image + terms.slab_force * np.take(signs, rows, axis=1)
     )
     statics = np.reshape(prepared.statics_residual(gradients, forces, load_sizes), -1)
     violation = np.maximum(-gaps / prepared.bounds, 0.0).max(axis=1, initial=0.0)

@@ -313,7 +313,8 @@ def closed_forms(structure: BlockStructure, gradients: Array, sigmas: Array) -> 
     unloaded = negligible @ s.members == s.group_size
     decided = np.all(all_loaded | unloaded, axis=1) & (largest[:, 0] > 0.0)
     # e = -c a / |a| (N, R) [m]: for a slab (one row) that is -c sign(a); 0 where a = 0
-    images = a * (-s.bounds / np.where(sizes > 0.0, sizes, 1.0))[:, s.row_contact]
+    # np.take: a C-ordered gather (a [:, index] one is not, and slows the products after it)
+    images = a * np.take(-s.bounds / np.where(sizes > 0.0, sizes, 1.0), s.row_contact, axis=1)
     clear = _unique(s, multipliers, loaded, all_loaded, unloaded)
     borderline = np.flatnonzero(decided & ~clear)
     clear[borderline] = _unique_exactly(
@@ -324,7 +325,7 @@ def closed_forms(structure: BlockStructure, gradients: Array, sigmas: Array) -> 
         kept = ~unloaded[:, s.contact_group]  # (N, m)
         multipliers = np.where(kept, multipliers, 0.0)
         images = np.where(kept[:, s.row_contact], images, 0.0)
-    slab_side = images[:, s.starts]
+    slab_side = np.take(images, s.starts, axis=1)
     signs = np.where(s.is_norm | (slab_side >= 0.0), 1.0, -1.0)
     return ClosedForms(images @ s.rows_to_x, multipliers, signs, decided, unloaded)
 
@@ -342,7 +343,8 @@ def _unique(
     gradients = (loaded * s.gradient_size**2) @ s.members  # (N, G) >= |G_g|_F^2
     upper = np.sqrt((gradients + curvature * curvature).max(axis=1, initial=0.0))[:, None]
     lower = (loaded * s.gradient_floor).max(axis=1, initial=0.0)[:, None]
-    smallest = np.minimum.reduceat(multipliers[:, s.group_order], s.group_starts, axis=1)
+    ordered = np.take(multipliers, s.group_order, axis=1)
+    smallest = np.minimum.reduceat(ordered, s.group_starts, axis=1)
     floor = np.where(s.group_is_norm, 2.0 * smallest * s.group_floor, s.group_floor)
     seen = floor > FLAT_MARGIN * upper
     unseen = curvature <= UNSEEN_MARGIN * lower  # slabs: no curvature, always unseen
