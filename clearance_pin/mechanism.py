@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pinocchio as pin
 
+from .arguments import check_solve, check_solve_many
 from .equilibrium.cache import SolveCache
 from .equilibrium.outputs import resolve_outputs
 from .equilibrium.second_order import estimate_difference
@@ -310,9 +311,6 @@ class Mechanism:
         Returns:
             :class:`~clearance_pin.equilibrium.result.Equilibrium`.
         """
-
-        from .arguments import check_solve
-
         q = check_solve(self, loads, exact, q, gravity, tol, backend, accuracy, warm_start)
         gravity_load = False if gravity is False else gravity
         resolved = self.resolve_loads(loads, gravity_load)
@@ -380,7 +378,6 @@ class Mechanism:
         """Many equilibria, warm-started in sequence; see
         :func:`clearance_pin.equilibrium.batch.solve_many` (options: exact, gravity, tol, backend,
         executor, chunks, errors, progress)."""
-        from .arguments import check_solve_many
         from .equilibrium.batch import solve_many
 
         check_solve_many(self, loads, configurations, options)
