@@ -633,7 +633,8 @@ def run_case(case: Case, settings: RunSettings, tolerances: Tolerances, log) -> 
             )
         record(name, runs, {"tol": HEADLINE["tol"]}, False, OURS[name])
 
-    # ours, warm re-solve: each load warm-started from the previous one
+    # ours, warm re-solve: each load warm-started from the nearest answer of this run
+    forget_answers(mechanism)
     resolve = timed_run(
         {"tol": HEADLINE["tol"]},
         order,
@@ -654,6 +655,7 @@ def run_case(case: Case, settings: RunSettings, tolerances: Tolerances, log) -> 
 
     # ours, the planner's re-solve: the loads built once, new force and torque vectors each time
     resolver = mechanism.resolver(case.nominal)
+    forget_answers(mechanism)
     vectors = [_parameters(loads)[0] for loads in case.perturbed]
     nominal_vector = _parameters(case.nominal)[0]
     planner = timed_run(
@@ -787,6 +789,16 @@ def run_case(case: Case, settings: RunSettings, tolerances: Tolerances, log) -> 
     return results, refs["summary"]
 
 
+def forget_answers(mechanism) -> None:
+    """Empty the compiled kernel's pools of recent answers (fast_path.FastTerms.forget): a
+    timed run starts from what it solved itself, not from the answers of the same loads that an
+    earlier run left (the re-solves' warm start, the last verified answer, is kept)."""
+    for prepared in list(mechanism.cache.geometries.values()):
+        fast = prepared.__dict__.get("_fast_terms")
+        if fast is not None:
+            fast.forget()
+
+
 def play_scales(mechanism) -> tuple[float, float]:
     """(largest clearance c [mm], length scale l [mm]) of a mechanism: errors relative to the play
     are max(translation / c, rotation * l / c), the library's scaling of its unknowns."""
@@ -872,6 +884,7 @@ def batch_run(case: Case, refs: dict, settings: RunSettings, tolerances: Toleran
     for _ in range(settings.batch_repeats):
         order = rng.permutation(n)
         loads = [case.perturbed[i] for i in order]
+        forget_answers(mechanism)
         gc.collect()
         cpu_started = time.process_time()
         started = time.perf_counter()

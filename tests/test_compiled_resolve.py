@@ -395,3 +395,52 @@ def test_the_centre_start_walks_along_the_boundary(compiled):
         from_centre += answer.solver_status == "active set from the centre (compiled)"
         _assert_agree(answer, reference, play, length)
     assert from_centre >= 36, f"{from_centre} of 40 from the centre"
+
+
+def test_a_warm_solve_starts_from_the_nearest_recent_answer(compiled):
+    """The kernel keeps the last answers of a geometry (FastTerms.pool) and starts a warm solve
+    from the one whose objective is nearest. On 6.1.6.1b, load A's answer and then load B's
+    (another contact set) in the pool: A solved again in one active-set round verifies from the
+    pool (B, the most recent, as the guess fails in one round), and equals A's first answer.
+    The pool is a ring of POOL answers; forget() empties it."""
+    from clearance_pin.equilibrium.prepared import prepared_geometry
+
+    case = next(
+        c
+        for c in tomllib.loads((ROOT / "validation/younes2013_cases.toml").read_text())["case"]
+        if c["id"] == "6.1.6.1b"
+    )
+    mechanism = _younes().build(case)
+    base = tuple(load for load in mechanism.loads if isinstance(load, (PointForce, Torque)))
+    mechanism.solve(base)
+    fast = fast_path.fast_terms(prepared_geometry(mechanism))
+
+    def cold(loads):
+        params, matrix, constant = fast.load_map(mechanism.resolve_loads(loads))
+        rows, _ = fast.solve_cold(params.reshape(1, -1), matrix, constant)
+        assert rows[0, 0] == kernel.SOLVED
+        return (params.reshape(1, -1), matrix, constant), fast.parts(rows[0])
+
+    fast.forget()
+    assert fast.pool[4].tolist() == [0, 0]
+    loads = _perturbed(base, np.random.default_rng(RNG_SEED + 7), 60)
+    a_case, a = cold(loads[0])
+    a_set = a["multipliers"] > 0.0
+    b_loads = next(
+        x for x in loads[1:] if (cold(x)[1]["multipliers"] > 0.0).tolist() != a_set.tolist()
+    )
+    fast.forget()
+    cold(loads[0])
+    _, b = cold(b_loads)
+    assert fast.pool[4].tolist() == [2, 2]
+    guess = (b["y"], b["multipliers"], b["signs"])
+    rows, _ = fast.solve(*a_case, *guess, warm_rounds=1, centre=False)
+    assert rows[0, 0] != kernel.SOLVED  # B's contact set is not left in one round
+    rows, _ = fast.solve(*a_case, *guess, warm_rounds=1, centre=False, pooled=True)
+    assert rows[0, 0] == kernel.SOLVED and rows[0, kernel.START] == kernel.FROM_NEIGHBOUR
+    assert np.abs(fast.parts(rows[0])["y"] - a["y"]).max() <= 1e-14
+    for k in range(fast_path.POOL):  # 3 answers in, then POOL more: full, the oldest overwritten
+        cold(loads[k % len(loads)])
+    assert fast.pool[4].tolist() == [fast_path.POOL, 3]
+    fast.forget()
+    assert fast.pool[4].tolist() == [0, 0]

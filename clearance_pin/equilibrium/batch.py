@@ -395,6 +395,7 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
         seed.signs,
         chain=True,
         warm_rounds=WARM_ROUNDS,
+        pooled=True,
     )
     x_column = next(start for name, start, _, _ in fast.layout if name == "x")
     x_all = np.full((len(cases), prepared.size_x), np.nan)

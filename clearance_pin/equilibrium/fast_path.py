@@ -44,6 +44,7 @@ TOLERANCES = np.array(
 # walks along the boundary in short steps: with 3 per contact a reviewer's three-bearing shaft
 # left 6 of 50 loads to Clarabel, with 8 3 of 50); the polish of a backend's answer gets ROUNDS
 ROUNDS, WARM_ROUNDS, CENTRE_ROUNDS_PER_CONTACT, ITERATIONS = 10, 3, 8, 12
+POOL = 64  # recent answers the kernel keeps per geometry, the starts of warm solves
 LOAD_MAPS_KEPT = 64  # sets of loaded points kept per configuration
 
 COMPILE_AFTER = 2000  # re-solves of a process after which the kernel's load (about 1 s) pays
@@ -153,18 +154,33 @@ class FastTerms:
         for name, size, shape in sizes:
             self.layout.append((name, at, at + size, shape))
             at += size
+        self._slices = [(name, slice(start, end), shape) for name, start, end, shape in self.layout]
+        # the kernel's pool of recent answers (kernel.solve_cases), updated in place by it
+        self.pool = (
+            np.zeros((POOL, self.size)),
+            np.zeros((POOL, self.size)),
+            np.zeros((POOL, m)),
+            np.ones((POOL, m)),
+            np.zeros(2, dtype=np.int64),
+        )
 
     def solve(self, cases, load_matrix, load_constant, y, multipliers, signs, chain=False,
-              allow_flat=True, warm_rounds=ROUNDS, centre=True):  # fmt: skip
+              allow_flat=True, warm_rounds=ROUNDS, centre=True, pooled=False):  # fmt: skip
         """kernel.solve_cases on the load cases ``cases`` (N, 3 k) from the guess (y,
         multipliers, slab sides) in ``warm_rounds`` rounds (0: no guess), else from the centre
-        (``centre`` False: not): (rows (N, width), flat directions of the last case)."""
+        (``centre`` False: not): (rows (N, width), flat directions of the last case).
+        ``pooled``: each case from the nearest of the recent answers (:attr:`pool`) instead,
+        the guess while there are none."""
         return self.kernel.solve_cases(
             cases, load_matrix, load_constant, self.load_rows, self.prepared.size_x, self.weights,
             *self.cone, _vector(y), _vector(multipliers), _vector(signs), self.accept,
             warm_rounds, self.centre_rounds if centre else 0, ITERATIONS, TOLERANCES,
-            *self.answer, chain, allow_flat,
+            *self.answer, chain, allow_flat, *self.pool, pooled,
         )  # fmt: skip
+
+    def forget(self) -> None:
+        """Empty the pool of recent answers (a benchmark's runs start equal)."""
+        self.pool[4][:] = 0
 
     def solve_cold(self, cases, load_matrix, load_constant):
         """:meth:`solve` from the centre alone (no guess)."""
@@ -176,8 +192,8 @@ class FastTerms:
         """The arrays of one row of :meth:`solve` (views): y, multipliers, signs, x, torsors
         (joints, 6), twists (bodies, 6), gaps, forces."""
         return {
-            name: row[start:end] if shape is None else row[start:end].reshape(shape)
-            for name, start, end, shape in self.layout
+            name: row[part] if shape is None else row[part].reshape(shape)
+            for name, part, shape in self._slices
         }
 
     def equilibrium(self, row, flat, loads, outcome, times, output_points=(), answer=None,
@@ -359,7 +375,8 @@ def solve_compiled(
     code, status = kernel.UNDECIDED, ""
     if warm is not None and warm.y.shape == (fast.size,):
         solved = fast.solve(cases, load_matrix, load_constant, warm.y, warm.multipliers,
-                            warm.signs, warm_rounds=WARM_ROUNDS, centre=from_centre)  # fmt: skip
+                            warm.signs, warm_rounds=WARM_ROUNDS, centre=from_centre,
+                            pooled=True)  # fmt: skip
         code = solved[0][0, 0]
     elif from_centre:
         solved = fast.solve_cold(cases, load_matrix, load_constant)

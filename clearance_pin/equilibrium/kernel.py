@@ -852,6 +852,20 @@ def answer_arrays(y, multipliers, signs, sigma, scaled_gradient, load_size, x_fr
     return x, torsors, twists, gaps, forces, measured
 
 
+@njit
+def _nearest_row(rows, count, vector):
+    """The index of the row among the first ``count`` of ``rows`` nearest ``vector``."""
+    best, nearest = np.inf, 0
+    for i in range(count):
+        distance = 0.0
+        for c in range(vector.size):
+            difference = rows[i, c] - vector[c]
+            distance += difference * difference
+        if distance < best:
+            best, nearest = distance, i
+    return nearest
+
+
 # the first columns of solve_cases' rows: code, sigma, load size, share, 3 KKT residuals,
 # statics, penetration [m], over the play, largest rotation, energy, the start that verified
 ENERGY, START, SCALARS = 11, 12, 13
@@ -865,7 +879,7 @@ def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matri
                 starts, is_norm, y0, lam0, signs0, accept, warm_rounds, rounds, iterations,
                 tolerances, x_from_y, torsor_rows, twist_rows, contact_rows, contact_offsets,
                 bounds, row_contact, norm_force, slab_force, reactions, scale, chain,
-                allow_flat):  # fmt: skip
+                allow_flat, pool_f, pool_y, pool_lam, pool_signs, pool_state, pooled):  # fmt: skip
     """Load cases (rows of ``params``, (N, 3 k)) solved in sequence: objective
     (:func:`load_objective`), the verified optimum (:func:`verified_optimum`) in ``warm_rounds``
     active-set rounds from the guess (y0, lambda0, sides) or, with ``chain``, from the previous
@@ -873,6 +887,12 @@ def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matri
     primal active-set method: along the load to the first contact, then Newton, release and
     add), the answer's arrays (:func:`answer_arrays`); one compiled call for one re-solve or a
     whole batch. ``warm_rounds`` 0: from the centre only (a cold solve).
+
+    The pool (``pool_f`` (W, r), ``pool_y`` (W, r), ``pool_lam`` (W, m), ``pool_signs`` (W, m),
+    ``pool_state`` = (entries, next slot)) keeps the last W answers with their objectives f; it
+    is updated in place with every answer. With ``pooled``, a warm case starts from the answer
+    whose f is nearest its own (the optimum depends on f alone, so the nearest f is the nearest
+    known optimum), the guess only while the pool is empty.
 
     Returns:
         (rows (N, width): per case :data:`SCALARS` scalars then y (r), multipliers (m), sides
@@ -903,6 +923,14 @@ def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matri
             continue
         found = UNDECIDED
         used = FROM_CENTRE
+        if warm_rounds > 0 and pooled and pool_state[0] > 0:
+            nearest = _nearest_row(pool_f, pool_state[0], objective)
+            y_start, lam_start, signs_start = (
+                pool_y[nearest],
+                pool_lam[nearest],
+                pool_signs[nearest],
+            )
+            start = FROM_NEIGHBOUR
         if warm_rounds > 0:
             found, y, lam, signs, kkt, flat = verified_optimum(
                 matrix, offset, starts, is_norm, objective, y_start, lam_start, signs_start,
@@ -936,6 +964,15 @@ def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matri
             out[k, at : at + block.size] = block
             at += block.size
         flat_last = flat
+        capacity = pool_f.shape[0]
+        if capacity > 0:
+            slot = pool_state[1]
+            pool_f[slot] = objective
+            pool_y[slot] = y
+            pool_lam[slot] = lam
+            pool_signs[slot] = signs
+            pool_state[1] = (slot + 1) % capacity
+            pool_state[0] = min(pool_state[0] + 1, capacity)
         if chain:
             y_start, lam_start, signs_start = y, lam, signs
             start = FROM_NEIGHBOUR
@@ -956,5 +993,6 @@ def warm_up() -> None:
         *arguments, matrix, offset, starts, is_norm, np.array([-1.0, 0.0]), np.array([0.5]),
         np.ones(1), 1e-12, 3, 10, 12, tolerances, np.eye(2), np.ones((6, 2)), np.ones((12, 2)),
         np.eye(2), np.zeros(2), np.ones(1), np.zeros(2, dtype=np.int64), np.ones(2), np.zeros(2),
-        np.zeros((2, 0)), np.ones(2), True, True,
+        np.zeros((2, 0)), np.ones(2), True, True, np.zeros((1, 2)), np.zeros((1, 2)),
+        np.zeros((1, 1)), np.ones((1, 1)), np.zeros(2, dtype=np.int64), True,
     )  # fmt: skip
