@@ -81,6 +81,11 @@ def test_errors_returned_in_place():
     assert isinstance(results[3], cp.UnboundedLoadError)
     assert "alpha" in str(results[3])
     assert [r.ok for i, r in enumerate(results) if i != 3] == [True] * 5
+    # the whole-batch arrays: NaN in the error's row, each other row the case's own answer
+    torsors = results.torsors("I1")
+    assert np.isnan(torsors[3]).all() and results.ok.tolist() == [True] * 3 + [False] + [True] * 2
+    for i in (0, 1, 2, 4, 5):
+        assert np.allclose(torsors[i], results[i].torsor("I1"), rtol=0, atol=1e-15)
     with pytest.raises(cp.UnboundedLoadError):
         mechanism.solve_many(cases)
 

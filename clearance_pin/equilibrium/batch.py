@@ -63,15 +63,15 @@ class EquilibriumBatch(Sequence):
         """Torsor of ``joint`` for every case, (N, 6) [m, rad] (NaN for failed cases)."""
         if self._arrays is not None and joint in self._arrays["torsor_maps"]:
             values = self._arrays["x"] @ self._arrays["torsor_maps"][joint].T
-            return np.where(self._arrays["batched"][:, None], values, self._fallback(joint))
-        return self._fallback(joint)
+            alone = np.flatnonzero(~self._arrays["batched"])  # the cases solved one by one
+            values[alone] = self._one_by_one(joint, alone)
+            return values
+        return self._one_by_one(joint, range(len(self)))
 
-    def _fallback(self, joint: str) -> np.ndarray:
+    def _one_by_one(self, joint: str, indices) -> np.ndarray:
+        """Torsors of ``joint`` read from the items ``indices`` (NaN for errors), (k, 6)."""
         rows = []
-        for i in range(len(self)):
-            if self._arrays is not None and self._arrays["batched"][i]:
-                rows.append(np.full(6, np.nan))
-                continue
+        for i in indices:
             item = self[i]
             rows.append(np.full(6, np.nan) if isinstance(item, Exception) else item.torsor(joint))
         return np.array(rows).reshape(-1, 6)
