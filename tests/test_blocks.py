@@ -442,6 +442,37 @@ def test_load_cases_at_one_configuration_equal_single_solves():
     assert np.isfinite(reactions.force).all()
 
 
+def test_load_cases_across_chunks_equal_single_solves():
+    """2100 load cases of the 6R arm, more than two of block_batch's chunks of CHUNK cases
+    (the load terms are sorted by case and cut per chunk), of mixed kinds (a force; a force and a
+    torque; a torque and an explicit Gravity; a torque on another link and a force): cases on
+    either side of each chunk boundary equal single general-path solves."""
+    from clearance_pin.equilibrium.block_batch import CHUNK
+
+    arm = cp.load(MODELS / "arm_6r.urdf")
+    rng = np.random.default_rng(8)
+    count = 2 * CHUNK + 52
+    mixed = []
+    for k, (force, torque) in enumerate(random_tool_loads(rng, count)):
+        kind = k % 4
+        mixed.append(
+            [force]
+            if kind == 0
+            else [force, torque]
+            if kind == 1
+            else [torque, Gravity([0.0, 0.0, -9.81])]
+            if kind == 2
+            else [Torque("upper_arm", torque.torque), force]
+        )
+    batch = arm.solve_many(mixed)
+    assert batch.statuses.count(SOLVER_STATUS) == count
+    general = cp.load(MODELS / "arm_6r.urdf")
+    for k in (0, 1, 2, 3, CHUNK - 1, CHUNK, CHUNK + 1, 2 * CHUNK - 1, 2 * CHUNK, count - 1):
+        assert_same_answer(arm, batch[k], general.solve(loads=mixed[k], backend="clarabel"))
+        for joint in arm.joints:  # the whole-batch arrays too
+            assert np.allclose(batch.torsors(joint)[k], batch[k].torsor(joint), rtol=0, atol=1e-16)
+
+
 def test_vectorised_kinematics_loads_and_gradients_equal_the_prepared_geometry():
     """The pieces of the trajectory path against the per-point ones: forward kinematics against
     Pinocchio (revolute, prismatic and free-flyer joints of random trees), body wrenches (about

@@ -15,7 +15,7 @@ that cannot be read) is solved alone by :meth:`Mechanism.solve`, in order.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import fields, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -115,14 +115,7 @@ def solve_load_cases(
         return None
     prepared, structure = found
     table = load_table(mechanism, cases.load_column(), options["gravity"])
-    origin = prepared.configuration.oMi
-    rotations = np.array([m.rotation for m in origin])[None]
-    translations = np.array([m.translation for m in origin])[None]
-    wrenches, moments = body_wrenches(table, rotations, translations, prepared.bodies, False)
-    # g = W G: one product with the map of this configuration (wrenches about the joint centres)
-    maps = tree_maps(mechanism, prepared.geometry)
-    gradients = tree_gradients(maps, rotations, translations, wrenches)
-    objectives = objectives_of(prepared, gradients, wrenches, moments)
+    objectives = _load_case_objectives(mechanism, prepared, table)
     return _finish(
         mechanism,
         cases,
@@ -134,6 +127,42 @@ def solve_load_cases(
         objectives,
         table.valid,
         lambda i: prepared,
+    )
+
+
+def _load_case_objectives(
+    mechanism: Mechanism, prepared: PreparedGeometry, table: LoadTable
+) -> Objectives:
+    """The objectives of the load cases of ``table`` at the nominal configuration, formed
+    :data:`CHUNK` cases at a time: the intermediate arrays (body wrenches (cases, bodies, 6) and
+    their moments) stay small and are re-used, where whole-batch ones (tens of MB for 1e5 cases)
+    are fresh memory, whose first touch costs a page fault per 4 kB (a third of the run's time
+    here)."""
+    origin = prepared.configuration.oMi
+    rotations = np.array([m.rotation for m in origin])[None]
+    translations = np.array([m.translation for m in origin])[None]
+    maps = tree_maps(mechanism, prepared.geometry)
+    order = np.argsort(table.case, kind="stable")  # the rows of each case together
+    bounds = np.searchsorted(table.case[order], np.arange(0, table.count + CHUNK, CHUNK))
+    parts = []
+    for k, start in enumerate(range(0, table.count, CHUNK)):
+        rows = order[bounds[k] : bounds[k + 1]]
+        part = replace(
+            table,
+            count=min(CHUNK, table.count - start),
+            case=table.case[rows] - start,
+            body=table.body[rows],
+            force=table.force[rows],
+            point=table.point[rows],
+            torque=table.torque[rows],
+            valid=table.valid[start : start + CHUNK],
+        )
+        wrenches, moments = body_wrenches(part, rotations, translations, prepared.bodies, False)
+        # g = W G: one product with the map of this configuration (wrenches about the centres)
+        gradients = tree_gradients(maps, rotations, translations, wrenches)
+        parts.append(objectives_of(prepared, gradients, wrenches, moments))
+    return Objectives(
+        *(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(Objectives))
     )
 
 
