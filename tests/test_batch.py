@@ -155,3 +155,25 @@ def test_threads_share_one_mechanism_safely():
         )
     for name in threaded_mechanism.joints:
         assert np.allclose(threaded.torsors(name), serial.torsors(name), rtol=0, atol=1e-12)
+
+
+def test_cases_read_as_pairs_from_two_columns():
+    """solve_many keeps its cases as two columns (batch.Cases: no pair per case is built); read
+    by index, slice or iteration they are the (loads, configuration) pairs, None where a column
+    is absent."""
+    from clearance_pin.equilibrium.batch import Cases
+
+    loads = [[Torque("shaft", [0.0, 0.0, float(k)])] for k in range(5)]
+    configurations = [np.full(2, float(k)) for k in range(5)]
+    both = Cases(loads, configurations, 5)
+    assert len(both) == 5 and both[2] == (loads[2], configurations[2]) and both[-1][0] is loads[4]
+    assert [pair[0] for pair in both] == loads
+    part = both[1:4]
+    assert len(part) == 3 and part[0][1] is configurations[1] and list(part)[-1][0] is loads[3]
+    only_loads = Cases(loads, None, 5)
+    assert list(only_loads)[3] == (loads[3], None) and only_loads.load_column() is loads
+    only_configurations = Cases(None, configurations, 5)
+    assert only_configurations[4] == (None, configurations[4])
+    assert only_configurations.load_column() == [None] * 5
+    with pytest.raises(IndexError):
+        both[5]

@@ -108,6 +108,9 @@ def test_solve_many_argument_errors(pendulum):
     with pytest.raises(cp.ArgumentError) as caught:
         pendulum.solve_many([force, force])
     assert caught.value.argument == "loads[0]"
+    with pytest.raises(cp.ArgumentError) as caught:  # after well-formed cases of both kinds
+        pendulum.solve_many([[force], (force,), None, "tip"])
+    assert caught.value.argument == "loads[3]"
     with pytest.raises(cp.ArgumentError) as caught:
         pendulum.solve_many(configurations=[pendulum.q_nominal, ["1", "2"]])
     assert caught.value.argument == "configurations[1]"
