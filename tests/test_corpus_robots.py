@@ -28,7 +28,7 @@ import pytest
 from corpus_statics import reaction_residual, statics_residual
 
 import clearance_pin
-from clearance_pin import Equilibrium, PointForce
+from clearance_pin import Equilibrium, PointForce, Torque
 
 RADIAL, AXIAL, LENGTH = 1e-5, 5e-6, 0.03  # [m]
 TOOL_FORCE = np.array([20.0, -30.0, -50.0])  # [N], world axes
@@ -204,6 +204,40 @@ def test_every_journal_matches_its_closed_form(robot):
         np.testing.assert_allclose(got[:3], expected[:3], rtol=0, atol=1e-9 * RADIAL, err_msg=name)
         np.testing.assert_allclose(
             got[3:], expected[3:], rtol=0, atol=1e-9 * RADIAL / LENGTH, err_msg=name
+        )
+
+
+@pytest.mark.parametrize("robot", sorted(ROBOTS))
+def test_a_torque_about_the_tool_axis_matches_the_closed_forms(robot):
+    """1 N m about the tool frame's z axis, the last joint's axis up to the vendor rotations'
+    round-off: the last journal carries 1e-13 of the load, left at the centre of its play (as the
+    docs say of a joint with less than 1e-9 of the largest force), every other journal tilts to
+    its closed form; the neglected share is reported in ``unblocked_load`` (before: stationarity
+    3e-12 > 1e-12, SolverError on the UR5)."""
+    mech = mechanism(robot)
+    data = nominal_placements(mech)
+    torque = data.oMf[mech.model.getFrameId(ROBOTS[robot][2])].rotation[:, 2].copy()
+    eq = mech.solve(loads=[Torque(ROBOTS[robot][2], torque)], gravity=False)
+    assert eq.ok and eq.residuals.unblocked_load <= 1e-9
+    for name in ROBOTS[robot][1]:
+        joint = mech.joint(name)
+        rotation = data.oMi[joint.joint_id].rotation @ joint.rotation  # clearance frame, world
+        moment = rotation.T @ torque
+        if np.linalg.norm(np.cross(moment, [1.0, 0.0, 0.0])) <= 1e-9:  # about the axis: unloaded
+            expected = np.zeros(6)
+        else:
+            expected = journal_torsor(np.zeros(3), moment, RADIAL, AXIAL, LENGTH)
+        got = eq.torsor(name)
+        np.testing.assert_allclose(got[:3], expected[:3], rtol=0, atol=1e-9 * RADIAL, err_msg=name)
+        np.testing.assert_allclose(
+            got[3:], expected[3:], rtol=0, atol=1e-9 * RADIAL / LENGTH, err_msg=name
+        )
+    batch = mech.solve_many([[Torque(ROBOTS[robot][2], k * torque)] for k in (1.0, 2.0, 3.0)])
+    assert batch.ok.all() and set(batch.statuses) == {"closed form"}
+    for name in ROBOTS[robot][1]:
+        # the answer does not depend on the load's size (a triple torque, the same torsors)
+        np.testing.assert_allclose(
+            batch.torsors(name)[2], eq.torsor(name), rtol=0, atol=1e-12 * RADIAL
         )
 
 

@@ -254,7 +254,9 @@ def _finish(
     prepared_at: Callable[[int], PreparedGeometry],
 ) -> EquilibriumBatch:
     """Closed forms and verification of every case; single solves for the rest."""
-    closed, y, table, verified = _closed_and_verified(nominal, structure, terms)
+    closed, y, table, verified, neglected = _closed_and_verified(nominal, structure, terms)
+    # the load left on unloaded joints is reported with the share nothing blocks
+    terms = replace(terms, shares=np.maximum(terms.shares, neglected))
     done = terms.regular & valid & closed.decided & verified
     progress.update(int(done.sum()))
     items: list[Any] = [None] * len(cases)
@@ -281,11 +283,11 @@ def _finish(
 
 def _closed_and_verified(
     nominal: PreparedGeometry, structure: BlockStructure, terms: Objectives
-) -> tuple[ClosedForms, Array, Array, Mask]:
+) -> tuple[ClosedForms, Array, Array, Mask, Array]:
     """The closed forms of every case and their verification, in chunks of :data:`CHUNK` cases
     (arrays that stay in the processor's cache): (closed forms, y (N, r), KKT table (N, 4),
-    verified (N,))."""
-    parts: list[tuple[ClosedForms, Array, Array, Mask]] = []
+    verified (N,), the load neglected on unloaded joints (N,))."""
+    parts: list[tuple[ClosedForms, Array, Array, Mask, Array]] = []
     for start in range(0, max(len(terms.sigmas), 1), CHUNK):
         part = slice(start, start + CHUNK)
         closed = closed_forms(structure, terms.gradients[part], terms.sigmas[part])
@@ -301,8 +303,9 @@ def _closed_and_verified(
             terms.sigmas[part],
             terms.gradients[part],
             terms.load_sizes[part],
+            closed.unloaded,
         )
-        parts.append((closed, y, check.table, check.verified))
+        parts.append((closed, y, check.table, check.verified, check.neglected))
     if len(parts) == 1:
         return parts[0]
     return (
@@ -312,6 +315,7 @@ def _closed_and_verified(
         np.concatenate([p[1] for p in parts]),
         np.concatenate([p[2] for p in parts]),
         np.concatenate([p[3] for p in parts]),
+        np.concatenate([p[4] for p in parts]),
     )
 
 

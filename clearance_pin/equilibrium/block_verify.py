@@ -28,7 +28,7 @@ import numpy as np
 
 from .blocks import Array, BlockStructure, Mask, block_structure, closed_forms, reduced_unknowns
 from .cone_solver import acceptance
-from .kkt import StackedContacts
+from .kkt import UNLOADED, StackedContacts
 from .lazy import LazySequence
 from .linear_answer import assemble_linear
 from .load_table import body_terms, centred_wrenches
@@ -46,11 +46,13 @@ SOLVER_STATUS = "closed form"
 
 @dataclass(frozen=True)
 class Verification:
-    """Per case: verified (N,), the KKT table (N, 4) (:data:`RESIDUAL_NAMES`), statics (N,)."""
+    """Per case: verified (N,), the KKT table (N, 4) (:data:`RESIDUAL_NAMES`), statics (N,),
+    the load neglected on the joints left unloaded (N,) (:func:`kkt_table`)."""
 
     verified: Mask
     table: Array
     statics: Array
+    neglected: Array
 
 
 def kkt_table(
@@ -60,10 +62,19 @@ def kkt_table(
     y: Array,
     multipliers: Array,
     signs: Array,
-) -> tuple[Mask, Array]:
+    unloaded: Mask | None = None,
+) -> tuple[Mask, Array, Array]:
     """The reduced programme's KKT test of N answers (module docstring, first item): objectives
-    f (N, r), reduced unknowns y (N, r), multipliers and slab sides (N, m); returns (passed (N,),
-    the table (N, 4) of :data:`RESIDUAL_NAMES`)."""
+    f (N, r), reduced unknowns y (N, r), multipliers and slab sides (N, m), the groups the closed
+    forms left unloaded (N, G); returns (passed (N,), the table (N, 4) of
+    :data:`RESIDUAL_NAMES`, the load neglected (N,)).
+
+    A group whose contacts would carry at most 1e-9 of the largest force is left at the centre
+    of its play with no force (:func:`.blocks.closed_forms`): its share of the load, at most
+    :data:`~.kkt.UNLOADED` of |f| = 1, is neglected (as the share along motions nothing blocks
+    is), so stationarity is measured on the other unknowns and the neglected share is returned
+    (a torque along a driven joint's axis, turned by a rotation matrix's round-off, leaves 3e-12
+    of the load on that journal: it failed the 1e-12 stationarity test)."""
     stack: StackedContacts = prepared.geometry.stack
     image = y @ stack.matrix.T  # + o: zero for a tree (blocks.block_structure)
     squares = (image * image) @ structure.row_sums  # the stack's rows and contacts
@@ -73,9 +84,15 @@ def kkt_table(
     phi = squares * norm + np.abs(np.take(image, stack.starts, axis=1)) * ~norm - 1.0
     weights = image * (2.0 * row_norm) + np.take(signs, stack.row_contact, axis=1) * ~row_norm
     pull = (np.take(multipliers, stack.row_contact, axis=1) * weights) @ stack.matrix
+    residual = np.abs(objectives + pull)
+    neglected = np.zeros(len(y))
+    columns = _unloaded_columns(structure, unloaded)
+    if columns is not None:
+        neglected = (residual * columns).max(axis=1, initial=0.0)
+        residual = residual * ~columns
     table = np.stack(
         [
-            np.abs(objectives + pull).max(axis=1, initial=0.0),
+            residual.max(axis=1, initial=0.0),
             np.maximum(phi, 0.0).max(axis=1, initial=0.0),
             np.abs(multipliers * phi).max(axis=1, initial=0.0),
             np.maximum(-multipliers, 0.0).max(axis=1, initial=0.0),
@@ -86,8 +103,23 @@ def kkt_table(
         (table.max(axis=1) <= acceptance(prepared.geometry.conditioning))
         & (multipliers.min(axis=1, initial=0.0) >= -1e-12)
         & (phi.max(axis=1, initial=-1.0) <= 1e-13)
+        & (neglected <= UNLOADED)
     )
-    return passed, table
+    return passed, table, neglected
+
+
+def _unloaded_columns(structure: BlockStructure, unloaded: Mask | None) -> Mask | None:
+    """The unknowns of the unloaded groups (N, r), or None when there are none or the reduced
+    unknowns are not the groups' own (a basis other than the identity: free motions)."""
+    if unloaded is None or not unloaded.any():
+        return None
+    size = structure.size_x
+    if structure.basis.shape != (size, size) or not np.array_equal(structure.basis, np.eye(size)):
+        return None
+    owner = np.zeros((len(structure.group_columns), size))
+    for group, columns in enumerate(structure.group_columns):
+        owner[group, columns] = 1.0
+    return (unloaded @ owner) > 0.0
 
 
 def verify(
@@ -101,13 +133,16 @@ def verify(
     sigmas: Array,
     gradients: Array,
     load_sizes: Array,
+    unloaded: Mask | None = None,
 ) -> Verification:
     """Verify N answers (module docstring) of the geometry of ``prepared`` and ``structure``
     (:func:`.blocks.block_structure`, its rows stacked as the geometry's): objectives f (N, r),
     reduced unknowns y (N, r),
     unknowns x (N, n), multipliers and slab sides (N, m), objective scales (N,) [J], gradients
-    g (N, n), load sizes (N,) [J]."""
-    passed, table = kkt_table(prepared, structure, objectives, y, multipliers, signs)
+    g (N, n), load sizes (N,) [J], the groups left unloaded (N, G) (:func:`kkt_table`)."""
+    passed, table, neglected = kkt_table(
+        prepared, structure, objectives, y, multipliers, signs, unloaded
+    )
     terms = prepared.terms
     rows = terms.contact_of_row
     x_image = x @ terms.contact_rows.T  # + offsets: zero for a tree
@@ -123,7 +158,7 @@ def verify(
         & (statics <= STATICS_TOLERANCE)
         & (violation <= FEASIBILITY_TOLERANCE)
     )
-    return Verification(verified, table, statics)
+    return Verification(verified, table, statics, neglected)
 
 
 def flat_notes(
@@ -208,11 +243,19 @@ def closed_form_answer(
     if not closed.decided[0]:
         return None
     y = reduced_unknowns(structure, closed.x)
-    passed, table = kkt_table(
-        prepared, structure, problem.objective[None, :], y, closed.multipliers, closed.signs
+    passed, table, neglected = kkt_table(
+        prepared,
+        structure,
+        problem.objective[None, :],
+        y,
+        closed.multipliers,
+        closed.signs,
+        closed.unloaded,
     )
     if not passed[0]:
         return None
+    if neglected[0] > problem.unblocked_share:  # reported with the share nothing blocks
+        problem = replace(problem, unblocked_share=float(neglected[0]))
     # statics and penetration: measured by the answer itself (Equilibrium.ok below)
     answer = assemble_linear(
         prepared,

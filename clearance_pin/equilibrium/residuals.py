@@ -17,7 +17,9 @@ A solver's status is no proof. Every answer is checked on the quantities of its 
   outputs;
 - ``unblocked_load``: the share of the load along motions nothing blocks that the answer neglects
   (at most 1e-9 of the load; a larger share has no equilibrium: UnboundedLoadError). It is not
-  always round-off: a load component of 1e-9 of the load is neglected too, and shows here.
+  always round-off: a load component of 1e-9 of the load is neglected too, and shows here. The
+  closed forms report here too the share left on a joint whose contacts would carry less than
+  1e-9 of the largest force (the joint left at the centre of its play).
 
 A quantity a formulation does not measure is None (not 0): :meth:`Residuals.ok` says which ones
 each test needs.
