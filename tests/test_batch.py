@@ -177,3 +177,19 @@ def test_cases_read_as_pairs_from_two_columns():
     assert only_configurations.load_column() == [None] * 5
     with pytest.raises(IndexError):
         both[5]
+
+
+@pytest.mark.parametrize("model", ["arm_6r", "four_bar", "younes_sphere_cylinder"])
+def test_an_error_raised_names_its_case(model):
+    """With errors="raise" the first failing case's error carries a note naming its index: on a
+    tree (the closed forms' batch), a loop mechanism (the compiled or NumPy batch) and a shaft, in
+    this process and through a thread executor."""
+    mechanism = cp.load(MODELS / f"{model}.urdf")
+    good = [[load] for load in mechanism.loads if isinstance(load, (PointForce, Torque))][:1]
+    cases = good * 20 + [[PointForce("nowhere", [1.0, 0.0, 0.0])]] + good * 3
+    with pytest.raises(cp.LoadError) as caught:
+        mechanism.solve_many(cases)
+    assert caught.value.__notes__ == ["solve_many: in case 20 (counting from 0)"]
+    with ThreadPoolExecutor(2) as pool, pytest.raises(cp.LoadError) as caught:
+        mechanism.solve_many(cases, executor=pool, chunks=3)
+    assert caught.value.__notes__ == ["solve_many: in case 20 (counting from 0)"]

@@ -134,8 +134,7 @@ class Cases(Sequence):
                 None if self.configurations is None else self.configurations[index],
                 len(range(*index.indices(self._count))),
             )
-        if not -self._count <= index < self._count:
-            raise IndexError(index)
+        # a column's own indexing raises the IndexError of an index out of range
         return (
             None if self.loads is None else self.loads[index],
             None if self.configurations is None else self.configurations[index],
@@ -168,19 +167,27 @@ def _cases(mechanism, loads, configurations) -> Cases:
     return Cases(loads, configurations, count)
 
 
-def _solve_chunk(mechanism, cases, options: dict, errors: str, progress=None) -> list:
-    """Solve cases in order (each warm-started from the previous one)."""
+def _solve_chunk(mechanism, cases, options: dict, errors: str, progress=None, start=0) -> list:
+    """Solve cases in order (each warm-started from the previous one); ``start``: the index of
+    the first in the whole batch (an error raised names its case)."""
     results = []
-    for case_loads, q in cases:
+    for k, (case_loads, q) in enumerate(cases):
         try:
             results.append(mechanism.solve(loads=case_loads, q=q, **options))
         except ClearancePinError as exc:
             if errors == "raise":
+                name_case(exc, start + k)
                 raise
             results.append(exc)
         if progress is not None:
             progress.update()
     return results
+
+
+def name_case(error: ClearancePinError, index: int) -> None:
+    """Add to ``error`` a note naming the case of :func:`solve_many` it comes from (shown under
+    the message in a traceback; ``error.__notes__``)."""
+    error.add_note(f"solve_many: in case {index} (counting from 0)")
 
 
 def solve_many(
@@ -209,7 +216,8 @@ def solve_many(
         exact, gravity, tol, backend: as in :meth:`Mechanism.solve`.
         executor: run chunks of cases as tasks of this executor (default: in this process).
         chunks: number of chunks with an executor (default: 4 per worker, at least 1 case each).
-        errors: ``"raise"`` (first error stops) or ``"return"`` (the error takes the case's place).
+        errors: ``"raise"`` (the first error stops, a note on it names its case) or ``"return"``
+            (the error takes the case's place).
         progress: progress bar on stderr (None: when stderr is a terminal and more than 100 cases).
 
     Returns:
@@ -242,7 +250,7 @@ def solve_many(
     count = chunks or min(len(cases), 4 * workers)
     bounds = np.linspace(0, len(cases), count + 1).astype(int)
     futures = [
-        executor.submit(_solve_chunk, mechanism, cases[a:b], options, errors)
+        executor.submit(_solve_chunk, mechanism, cases[a:b], options, errors, None, int(a))
         for a, b in itertools.pairwise(bounds)
         if b > a
     ]
@@ -278,7 +286,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
             return compiled
     if geometry.basis.shape[1] > BATCH_MAX_SIZE:
         # stacked dense KKT systems cost O(N r^3) memory traffic for little gain at this size
-        rest = _solve_chunk(mechanism, cases[1:], options, errors, bar)
+        rest = _solve_chunk(mechanism, cases[1:], options, errors, bar, start=1)
         return EquilibriumBatch([first, *rest])
     try:
         wrenches = np.array(
@@ -351,7 +359,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
             break
         # the next group: seeded by a single solve of the first case left
         i = pending[0]
-        items[i] = _solve_chunk(mechanism, [cases[i]], options, errors)[0]
+        items[i] = _solve_chunk(mechanism, [cases[i]], options, errors, start=i)[0]
         bar.update()
         pending = pending[1:]
         solved = items[i]
@@ -362,7 +370,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         )
     for i in range(len(cases)):
         if items[i] is None:
-            items[i] = _solve_chunk(mechanism, [cases[i]], options, errors)[0]
+            items[i] = _solve_chunk(mechanism, [cases[i]], options, errors, start=i)[0]
             bar.update()
     torsor_maps = {name: prepared.maps.joint_torsor[name] for name in mechanism.joints}
     return EquilibriumBatch(items, {"x": x_all, "batched": batched, "torsor_maps": torsor_maps})
@@ -412,7 +420,7 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
         if verified:
             items.append(_compiled_item(fast, rows[k], resolved[k + 1]))
         else:
-            items.append(_solve_chunk(mechanism, [cases[k + 1]], options, errors)[0])
+            items.append(_solve_chunk(mechanism, [cases[k + 1]], options, errors, start=k + 1)[0])
     torsor_maps = {name: prepared.maps.joint_torsor[name] for name in mechanism.joints}
     return EquilibriumBatch(items, {"x": x_all, "batched": batched, "torsor_maps": torsor_maps})
 

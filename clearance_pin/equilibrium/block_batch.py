@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ClearancePinError
-from .batch import Cases, EquilibriumBatch
+from .batch import Cases, EquilibriumBatch, name_case
 from .batch_kinematics import body_placements
 from .block_verify import RESIDUAL_NAMES, SOLVER_STATUS, flat_notes, verify
 from .blocks import (
@@ -266,6 +266,7 @@ def _finish(
             items[i] = mechanism.solve(loads=case_loads, q=q, **options)
         except ClearancePinError as exc:
             if errors == "raise":
+                name_case(exc, i)
                 raise
             items[i] = exc
         progress.update()
