@@ -133,6 +133,22 @@ def test_scaling_json_shape(tmp_path):
         assert isinstance(family["exponents_all_sizes"]["cold_s"], float)
 
 
+def test_paired_json_shape(tmp_path):
+    """One paper case, 6 loads, 2 batch repeats: per path and peer a median ratio and both
+    medians, positive, and the worst ratio over the cases."""
+    paired = _module("paired")
+    out = tmp_path / "paired.json"
+    arguments = ["--cases", "6.1.6.1a", "--loads", "6", "--repeats", "2", "--json", str(out)]
+    assert _run_script(paired, arguments) == 0
+    document = json.loads(out.read_text())
+    row = document["cases"]["6.1.6.1a"]
+    for path in ("resolve", "cold", "batch"):
+        for peer in ("clarabel_prebuilt_default", "clarabel_prebuilt"):
+            entry = row[path][peer]
+            assert entry["ratio_median"] > 0.0 and entry["ours_us"] > 0.0 and entry["peer_us"] > 0.0
+            assert document["worst"][path][peer] == entry["ratio_median"]
+
+
 @pytest.mark.parametrize("builder", ["planar_chain", "revolute_chain", "four_bar_ladder"])
 def test_generated_models_load_and_solve(builder):
     """The generated scaling models are valid model files with a verified equilibrium."""

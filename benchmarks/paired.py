@@ -1,0 +1,167 @@
+r"""Paired timing of ours against prebuilt Clarabel: the two solve the same load one after the other.
+
+On a shared machine the speed drifts by up to 2x within seconds, so two methods timed one after
+the other over 200 loads each (work_precision.py) can see different machines. Here every load is
+solved by ours and by the peer back to back, in alternating order (ours first on even loads), and
+each load gives one ratio peer time / our time; the per-case figure is the median of those ratios,
+the drift cancels in each pair. Timed per paper case:
+
+- ``resolve``: ``mechanism.solve(loads)`` (warm start from the nearest recent answer) against
+  ``peers.ClarabelPrebuilt(...).solve`` (built once with the case's load, ``update(q=...)``), at
+  Clarabel's default tolerances and at 1e-12;
+- ``cold``: ``mechanism.solve(loads, warm_start=False)`` against the same peers;
+- ``batch``: ``mechanism.solve_many`` over the loads in a new random order against a loop of the
+  peer over the same order, ``repeats`` times alternating, a ratio per repeat.
+
+The kernel is loaded first, as a planner does (``fast_path.load_kernel()``); the loads are
+work_precision.py's (same seed, same perturbation). Errors are not measured here (see
+work_precision.py: the same paths on the same loads).
+
+Usage: ``python benchmarks/paired.py [--cases ID ...] [--loads N] [--json out/paired.json]``.
+JSON: ``{"cases": {id: {"resolve": {peer: {"ratio_median", "ratio_p10", "ratio_p90", "ours_us",
+"peer_us"}}, "cold": ..., "batch": ...}}, "worst": {path: {peer: worst median ratio}},
+"settings": ...}``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import time
+import zlib
+from pathlib import Path
+
+import numpy as np
+import peers
+import work_precision as wp
+
+from clearance_pin import PointForce, Torque
+from clearance_pin.equilibrium import fast_path
+
+PEERS = {"clarabel_prebuilt_default": None, "clarabel_prebuilt": 1e-12}  # name: tolerance
+
+
+def _pair(ours, peer, first_ours: bool) -> tuple[float, float]:
+    """Wall times [s] of ``ours()`` and ``peer()`` run back to back, in the given order."""
+    if first_ours:
+        t0 = time.perf_counter()
+        ours()
+        t1 = time.perf_counter()
+        peer()
+        t2 = time.perf_counter()
+        return t1 - t0, t2 - t1
+    t0 = time.perf_counter()
+    peer()
+    t1 = time.perf_counter()
+    ours()
+    t2 = time.perf_counter()
+    return t2 - t1, t1 - t0
+
+
+def _summary(ours: list[float], peer: list[float]) -> dict:
+    ratios = np.array(peer) / np.array(ours)
+    return {
+        "ratio_median": float(np.median(ratios)),
+        "ratio_p10": float(np.percentile(ratios, 10)),
+        "ratio_p90": float(np.percentile(ratios, 90)),
+        "ours_us": float(np.median(ours) * 1e6),
+        "peer_us": float(np.median(peer) * 1e6),
+        "pairs": len(ratios),
+    }
+
+
+def paired_case(case: wp.Case, repeats: int, seed: int) -> dict:
+    """The three paired runs of one paper case (module docstring)."""
+    mechanism, loads = case.mechanism, case.perturbed
+    peer_loads = [wp.peer_load(x) for x in loads]
+    nominal = wp.peer_load(case.nominal)
+    out: dict = {"resolve": {}, "cold": {}, "batch": {}}
+    for name, tol in PEERS.items():
+        prebuilt = peers.ClarabelPrebuilt(case.shaft, nominal, tol)
+        prebuilt.solve(*nominal)
+        for path, options in (("resolve", {}), ("cold", {"warm_start": False})):
+            mechanism.solve(case.nominal, **options)  # untimed: the structure is built
+            wp.forget_answers(mechanism)  # the pool holds no answer of these loads
+            gc.collect()
+            times: tuple[list[float], list[float]] = ([], [])
+            for i, (ours_loads, peer_load) in enumerate(zip(loads, peer_loads)):
+                pair = _pair(
+                    lambda o=ours_loads, options=options: mechanism.solve(o, **options),
+                    lambda p=peer_load, solver=prebuilt: solver.solve(*p),
+                    i % 2 == 0,
+                )
+                times[0].append(pair[0])
+                times[1].append(pair[1])
+            out[path][name] = _summary(*times)
+        rng = np.random.default_rng(seed)
+        times = ([], [])
+        for k in range(repeats):
+            order = rng.permutation(len(loads))
+            shuffled = [loads[i] for i in order]
+            wp.forget_answers(mechanism)
+            gc.collect()
+
+            def batch(shuffled=shuffled):
+                result = mechanism.solve_many(shuffled, progress=False)
+                for joint in case.joints:
+                    result.torsors(joint)
+
+            def loop(order=order, solver=prebuilt):
+                for i in order:
+                    solver.solve(*peer_loads[i])
+
+            pair = _pair(batch, loop, k % 2 == 0)
+            times[0].append(pair[0] / len(loads))
+            times[1].append(pair[1] / len(loads))
+        out["batch"][name] = _summary(*times)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", nargs="*", help="paper case ids (default: all)")
+    parser.add_argument("--loads", type=int, default=200, help="loads per case")
+    parser.add_argument("--repeats", type=int, default=7, help="batch repeats per peer")
+    parser.add_argument("--json", type=Path, help="write the results to this JSON file")
+    args = parser.parse_args(argv)
+    settings = wp.RunSettings()
+    fast_path.load_kernel()
+    results = {}
+    for case in wp.load_cases(args.cases):
+        if case.shaft is None:  # the bundled models have no prebuilt peer
+            continue
+        rng = np.random.default_rng([settings.seed, zlib.crc32(case.id.encode())])
+        case.nominal = tuple(
+            load for load in case.mechanism.loads if isinstance(load, (PointForce, Torque))
+        )
+        case.perturbed = wp.perturbed_loads(case.mechanism, args.loads, settings.perturbation, rng)
+        results[case.id] = paired_case(case, args.repeats, settings.seed + 1)
+        row = results[case.id]
+        print(
+            f"{case.id}: "
+            + "; ".join(
+                f"{path} {row[path]['clarabel_prebuilt_default']['ratio_median']:.2f} / "
+                f"{row[path]['clarabel_prebuilt']['ratio_median']:.2f} "
+                f"({row[path]['clarabel_prebuilt_default']['ours_us']:.0f} us ours)"
+                for path in ("resolve", "cold", "batch")
+            ),
+            flush=True,
+        )
+    worst = {
+        path: {name: min(r[path][name]["ratio_median"] for r in results.values()) for name in PEERS}
+        for path in ("resolve", "cold", "batch")
+    }
+    print("worst median ratio over the cases (peer / ours, default tol / 1e-12):")
+    for path, row in worst.items():
+        print(f"  {path}: {row['clarabel_prebuilt_default']:.2f} / {row['clarabel_prebuilt']:.2f}")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        document = {"cases": results, "worst": worst, "settings": vars(args) | {"json": None}}
+        args.json.write_text(json.dumps(document, indent=1))
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
