@@ -52,6 +52,20 @@ def test_torque_about_the_free_spin_raises_and_names_it(case_id):
     assert error.fraction == pytest.approx(1.0, rel=1e-9)
 
 
+def test_an_unbounded_motion_says_it_names_its_largest_components():
+    """A reviewer's four-bar with its crank undriven (tests/data/fourbar_undriven_reviewer.urdf)
+    turns freely; the motion turns every pin, the rocker's by 14 % of the largest: the message
+    names the three larger ones and says it leaves one smaller component out (the reviewer read
+    the list as the whole motion)."""
+    mechanism = cp.load(MODELS.parent / "tests" / "data" / "fourbar_undriven_reviewer.urdf")
+    with pytest.raises(cp.UnboundedLoadError) as caught:
+        mechanism.solve()
+    motions = caught.value.motions
+    assert len(motions) == 4 and all("alpha" in m for m in motions[:3])
+    assert motions[3] == "and 1 smaller component (under 20 % of the largest)"
+    assert "rocker_joint" not in str(caught.value) and motions[3] in str(caught.value)
+
+
 def test_partly_unbounded_load_reports_its_share():
     """A force with an axial component on a shaft on two journals (slide u free): the error names
     the slide 'u' of the joints and reports the share of the load along it (|F_x| / |F| in the

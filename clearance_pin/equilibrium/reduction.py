@@ -478,7 +478,8 @@ def _variable_scales(maps, joints, contacts, length_scale: float) -> np.ndarray:
 def describe_motion(
     maps: SmallDisplacementMaps, joints: dict, motion: np.ndarray, length_scale: float
 ) -> list[str]:
-    """Name the joint components that a motion x moves, largest first.
+    """Name the joint components that a motion x moves, largest first: those above 20 % of the
+    largest, then how many smaller ones it moves too (above 1e-9 of the largest).
 
     Rotations are weighted by the length scale so that translations and rotations compare.
     """
@@ -492,6 +493,12 @@ def describe_motion(
     if largest == 0.0:
         return ["no joint moves"]
     picked = sorted((e for e in entries if e[0] > 0.2 * largest), reverse=True)
-    return [
+    smaller = sum(1e-9 * largest < e[0] <= 0.2 * largest for e in entries)
+    named = [
         f"joint {name!r} {COMPONENT_NAMES[c]} ({COMPONENT_MEANING[c]})" for _, name, c in picked
     ]
+    if smaller:
+        named.append(
+            f"and {smaller} smaller component{'s' if smaller > 1 else ''} (under 20 % of the largest)"
+        )
+    return named
