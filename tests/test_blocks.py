@@ -524,3 +524,25 @@ def test_vectorised_kinematics_loads_and_gradients_equal_the_prepared_geometry()
         np.testing.assert_allclose(got[1], want[1], rtol=0, atol=1e-13)
 
     kinematics()
+
+
+def test_gravity_wrenches_gathered_once_per_acceleration():
+    """PreparedGeometry.wrenches keeps a gravity's body wrenches per acceleration: solves with
+    two gravities in turn, on one mechanism, equal each gravity's solve on a fresh mechanism
+    (nothing carried from one acceleration to the other), through the general path too."""
+    arm = cp.load(MODELS / "arm_6r.urdf")
+    tool = [PointForce("tool", [5.0, -8.0, 3.0], [0.0, 0.0, 0.05])]
+    down, sideways = Gravity([0.0, 0.0, -9.81]), Gravity([0.0, -9.81, 2.0])
+    for backend in ("auto", "clarabel"):
+        for gravity in (down, sideways, down):
+            reused = arm.solve(tool, gravity=gravity, backend=backend)
+            fresh = cp.load(MODELS / "arm_6r.urdf").solve(tool, gravity=gravity, backend=backend)
+            for joint in arm.joints:
+                # the same load terms, summed in another order: equal to round-off
+                assert np.allclose(
+                    reused.torsor(joint), fresh.torsor(joint), rtol=1e-12, atol=1e-20
+                )
+    assert not np.allclose(
+        arm.solve(tool, gravity=down).torsor("shoulder_lift"),
+        arm.solve(tool, gravity=sideways).torsor("shoulder_lift"),
+    )

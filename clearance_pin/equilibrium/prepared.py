@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..model.loads import Gravity
 from ..numerics import column_space, null_space
 from .kkt import UNLOADED
 from .lazy import LazySequence
@@ -69,6 +70,7 @@ class PreparedGeometry:
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
         self._placements: dict = {}  # loaded links and masses at this configuration (load_terms)
+        self._gravity_wrenches: dict[bytes, np.ndarray] = {}  # per acceleration, at this q
 
     @property
     def signature(self) -> tuple:
@@ -98,8 +100,25 @@ class PreparedGeometry:
     # -- loads ---------------------------------------------------------------------------------
     def wrenches(self, loads) -> np.ndarray:
         """Body wrenches at the world origin (bodies, 6) [N, N m] of ``loads`` (ground excluded),
-        from the one gathering of loads per body (:func:`~.load_terms.gather_body_loads`)."""
+        from the one gathering of loads per body (:func:`~.load_terms.gather_body_loads`); a
+        gravity's, the same at this configuration for every solve, gathered once per
+        acceleration (the wrenches add up)."""
+        others = [load for load in loads if type(load) is not Gravity]
+        wrench = self._gathered(others)
+        if len(others) < len(loads):
+            for load in loads:
+                if type(load) is Gravity:
+                    key = np.asarray(load.acceleration, dtype=float).tobytes()
+                    weights = self._gravity_wrenches.get(key)
+                    if weights is None:
+                        weights = self._gravity_wrenches[key] = self._gathered([load])
+                    wrench += weights
+        return wrench
+
+    def _gathered(self, loads) -> np.ndarray:
         wrench = np.zeros((self.bodies, 6))
+        if not loads:
+            return wrench
         model, links = self.mechanism.model, self.mechanism.link_frames
         gathered = gather_body_loads(model, self.configuration, loads, links, self._placements)
         for body, load in gathered.items():
