@@ -44,19 +44,13 @@ PEERS = {"clarabel_prebuilt_default": None, "clarabel_prebuilt": 1e-12}  # name:
 
 def _pair(ours, peer, first_ours: bool) -> tuple[float, float]:
     """Wall times [s] of ``ours()`` and ``peer()`` run back to back, in the given order."""
-    if first_ours:
-        t0 = time.perf_counter()
-        ours()
-        t1 = time.perf_counter()
-        peer()
-        t2 = time.perf_counter()
-        return t1 - t0, t2 - t1
+    first, second = (ours, peer) if first_ours else (peer, ours)
     t0 = time.perf_counter()
-    peer()
+    first()
     t1 = time.perf_counter()
-    ours()
+    second()
     t2 = time.perf_counter()
-    return t2 - t1, t1 - t0
+    return (t1 - t0, t2 - t1) if first_ours else (t2 - t1, t1 - t0)
 
 
 def _summary(ours: list[float], peer: list[float]) -> dict:
