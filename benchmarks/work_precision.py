@@ -1316,8 +1316,15 @@ def plot(cases: dict, directory: Path, tolerances: Tolerances) -> Path:
     columns = 4
     rows = math.ceil(len(ids) / columns)
     figure, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.4 * rows), squeeze=False)
-    methods = sorted({m for c in cases.values() for m in c})
-    colours = {m: plt.cm.tab10(i % 10) for i, m in enumerate(methods)}
+    # ours: solid lines, round markers, tab10's first seven colours; peers: dashed, squares,
+    # tab10's last three and three others (thirteen methods, none sharing a colour)
+    peer = {m: bool(e.get("peer")) for c in cases.values() for m, e in c.items()}
+    ours = sorted(m for m in peer if not peer[m])
+    others = sorted(m for m in peer if peer[m])
+    palette = [*plt.cm.tab10.colors[:7]]
+    peer_palette = [*plt.cm.tab10.colors[7:], "#000000", "#e6ab02", "#1b2a6b"]
+    colours = {m: palette[i % len(palette)] for i, m in enumerate(ours)}
+    colours.update({m: peer_palette[i % len(peer_palette)] for i, m in enumerate(others)})
     for ax, case_id in zip(axes.flat, ids):
         for name, entry in cases[case_id].items():
             points = [
@@ -1328,8 +1335,8 @@ def plot(cases: dict, directory: Path, tolerances: Tolerances) -> Path:
             if not points:
                 continue
             t, e = zip(*points)
-            style = "--" if entry["peer"] else "-"
-            ax.plot(t, e, style, marker="o", ms=3, color=colours[name], label=name)
+            style, marker = ("--", "s") if entry["peer"] else ("-", "o")
+            ax.plot(t, e, style, marker=marker, ms=3, color=colours[name], label=name)
             if _finite(entry["error_mm"]) and _finite(entry["median_s"]):
                 ax.plot(
                     entry["median_s"],
