@@ -111,12 +111,9 @@ def kkt_table(
 def _unloaded_columns(structure: BlockStructure, unloaded: Mask | None) -> Mask | None:
     """The unknowns of the unloaded groups (N, r), or None when there are none or the reduced
     unknowns are not the groups' own (a basis other than the identity: free motions)."""
-    if unloaded is None or not unloaded.any():
+    if unloaded is None or not unloaded.any() or not structure.plain:
         return None
-    size = structure.size_x
-    if structure.basis.shape != (size, size) or not np.array_equal(structure.basis, np.eye(size)):
-        return None
-    owner = np.zeros((len(structure.group_columns), size))
+    owner = np.zeros((len(structure.group_columns), structure.size_x))
     for group, columns in enumerate(structure.group_columns):
         owner[group, columns] = 1.0
     return (unloaded @ owner) > 0.0
