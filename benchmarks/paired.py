@@ -9,6 +9,9 @@ the drift cancels in each pair. Timed per paper case:
 - ``resolve``: ``mechanism.solve(loads)`` (warm start from the nearest recent answer) against
   ``peers.ClarabelPrebuilt(...).solve`` (built once with the case's load, ``update(q=...)``), at
   Clarabel's default tolerances and at 1e-12;
+- ``resolver``: ``mechanism.resolver(loads).solve(vector)``, the planner's re-solve built once
+  and given the new force and torque vectors (the like of the peer's ``update(q=...)``), against
+  the same peers;
 - ``cold``: ``mechanism.solve(loads, warm_start=False)`` against the same peers;
 - ``batch``: ``mechanism.solve_many`` over the loads in a new random order against a loop of the
   peer over the same order, ``repeats`` times alternating, a ratio per repeat.
@@ -19,7 +22,8 @@ work_precision.py: the same paths on the same loads).
 
 Usage: ``python benchmarks/paired.py [--cases ID ...] [--loads N] [--json out/paired.json]``.
 JSON: ``{"cases": {id: {"resolve": {peer: {"ratio_median", "ratio_p10", "ratio_p90", "ours_us",
-"peer_us"}}, "cold": ..., "batch": ...}}, "worst": {path: {peer: worst median ratio}},
+"peer_us"}}, "resolver": ..., "cold": ..., "batch": ...}}, "worst": {path: {peer: worst median
+ratio}},
 "settings": ...}``.
 """
 
@@ -40,6 +44,7 @@ from clearance_pin import PointForce, Torque
 from clearance_pin.equilibrium import fast_path
 
 PEERS = {"clarabel_prebuilt_default": None, "clarabel_prebuilt": 1e-12}  # name: tolerance
+PATHS = ("resolve", "resolver", "cold", "batch")
 
 
 def _pair(ours, peer, first_ours: bool) -> tuple[float, float]:
@@ -66,24 +71,39 @@ def _summary(ours: list[float], peer: list[float]) -> dict:
 
 
 def paired_case(case: wp.Case, repeats: int, seed: int) -> dict:
-    """The three paired runs of one paper case (module docstring)."""
+    """The four paired runs of one paper case (module docstring)."""
     mechanism, loads = case.mechanism, case.perturbed
     peer_loads = [wp.peer_load(x) for x in loads]
     nominal = wp.peer_load(case.nominal)
-    out: dict = {"resolve": {}, "cold": {}, "batch": {}}
+    resolver = mechanism.resolver(case.nominal)
+    vectors = [wp.load_vector(x) for x in loads]
+    nominal_vector = wp.load_vector(case.nominal)
+    calls = {  # path: (untimed call building the structure, a call per load)
+        "resolve": (
+            lambda: mechanism.solve(case.nominal),
+            [lambda o=o: mechanism.solve(o) for o in loads],
+        ),
+        "resolver": (
+            lambda: resolver.solve(nominal_vector),
+            [lambda v=v: resolver.solve(v) for v in vectors],
+        ),
+        "cold": (
+            lambda: mechanism.solve(case.nominal, warm_start=False),
+            [lambda o=o: mechanism.solve(o, warm_start=False) for o in loads],
+        ),
+    }
+    out: dict = {path: {} for path in PATHS}
     for name, tol in PEERS.items():
         prebuilt = peers.ClarabelPrebuilt(case.shaft, nominal, tol)
         prebuilt.solve(*nominal)
-        for path, options in (("resolve", {}), ("cold", {"warm_start": False})):
-            mechanism.solve(case.nominal, **options)  # untimed: the structure is built
+        for path, (build, ours) in calls.items():
+            build()
             wp.forget_answers(mechanism)  # the pool holds no answer of these loads
             gc.collect()
             times: tuple[list[float], list[float]] = ([], [])
-            for i, (ours_loads, peer_load) in enumerate(zip(loads, peer_loads)):
+            for i, (call, peer_load) in enumerate(zip(ours, peer_loads)):
                 pair = _pair(
-                    lambda o=ours_loads, options=options: mechanism.solve(o, **options),
-                    lambda p=peer_load, solver=prebuilt: solver.solve(*p),
-                    i % 2 == 0,
+                    call, lambda p=peer_load, solver=prebuilt: solver.solve(*p), i % 2 == 0
                 )
                 times[0].append(pair[0])
                 times[1].append(pair[1])
@@ -138,13 +158,13 @@ def main(argv: list[str] | None = None) -> int:
                 f"{path} {row[path]['clarabel_prebuilt_default']['ratio_median']:.2f} / "
                 f"{row[path]['clarabel_prebuilt']['ratio_median']:.2f} "
                 f"({row[path]['clarabel_prebuilt_default']['ours_us']:.0f} us ours)"
-                for path in ("resolve", "cold", "batch")
+                for path in PATHS
             ),
             flush=True,
         )
     worst = {
         path: {name: min(r[path][name]["ratio_median"] for r in results.values()) for name in PEERS}
-        for path in ("resolve", "cold", "batch")
+        for path in PATHS
     }
     print("worst median ratio over the cases (peer / ours, default tol / 1e-12):")
     for path, row in worst.items():

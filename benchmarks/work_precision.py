@@ -261,6 +261,11 @@ def _parameters(loads) -> tuple[np.ndarray, Callable]:
     return np.concatenate(values) if values else np.zeros(0), rebuild
 
 
+def load_vector(loads) -> np.ndarray:
+    """The force / torque vectors of ``loads`` as one vector (3 k,), as a resolver takes them."""
+    return _parameters(loads)[0]
+
+
 def perturbed_loads(mechanism, count: int, relative: float, rng) -> list[tuple]:
     """``count`` random loads near the model's, with no component along an unblocked motion.
 
@@ -656,8 +661,8 @@ def run_case(case: Case, settings: RunSettings, tolerances: Tolerances, log) -> 
     # ours, the planner's re-solve: the loads built once, new force and torque vectors each time
     resolver = mechanism.resolver(case.nominal)
     forget_answers(mechanism)
-    vectors = [_parameters(loads)[0] for loads in case.perturbed]
-    nominal_vector = _parameters(case.nominal)[0]
+    vectors = [load_vector(loads) for loads in case.perturbed]
+    nominal_vector = load_vector(case.nominal)
     planner = timed_run(
         {"tol": HEADLINE["tol"]},
         order,

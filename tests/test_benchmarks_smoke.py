@@ -142,7 +142,7 @@ def test_paired_json_shape(tmp_path):
     assert _run_script(paired, arguments) == 0
     document = json.loads(out.read_text())
     row = document["cases"]["6.1.6.1a"]
-    for path in ("resolve", "cold", "batch"):
+    for path in ("resolve", "resolver", "cold", "batch"):
         for peer in ("clarabel_prebuilt_default", "clarabel_prebuilt"):
             entry = row[path][peer]
             assert entry["ratio_median"] > 0.0 and entry["ours_us"] > 0.0 and entry["peer_us"] > 0.0

@@ -5,6 +5,7 @@ are refused naming the argument."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,7 @@ import pytest
 
 import clearance_pin
 from clearance_pin import ArgumentError, PointForce, Torque
+from clearance_pin.equilibrium.resolver import _finite_vector
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -61,6 +63,8 @@ def test_resolver_answers_as_solve(model):
         assert np.array_equal(answer.loads[0].force if isinstance(answer.loads[0], PointForce)
                               else answer.loads[0].torque, vector[:3])  # fmt: skip
         answer.reaction(next(iter(answer.torsors)))  # the loads it carries are usable
+        # every field set (answers are filled from a template of their constant fields)
+        assert all(value is not dataclasses.MISSING for value in vars(answer).values())
 
 
 def test_resolver_refuses_bad_values_and_loads():
@@ -96,3 +100,60 @@ def test_solve_many_returns_a_refused_case_in_its_place_with_the_kernel(monkeypa
     batch = mechanism.solve_many(cases, errors="return")
     assert isinstance(batch[7], clearance_pin.ClearancePinError)
     assert all(batch[i].ok for i in range(20) if i != 7)
+
+
+def test_resolver_compiled_answers_equal_the_numpy_path(monkeypatch):
+    """With the kernel engaged the resolver's re-solve is one compiled call (its status says
+    so); its answers equal the NumPy path's (the kernel switched off on a second mechanism: the
+    same algorithm written twice, a consistency check), the loads it carries are the vectors
+    given even when the caller's array changes afterwards, and every field of the answer is
+    set."""
+    monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "1")
+    path = str(ROOT / "models/younes_two_cylinders.urdf")
+    mechanism, reference = clearance_pin.load(path), clearance_pin.load(path)
+    base = [load for load in mechanism.loads if isinstance(load, (PointForce, Torque))]
+    resolver = mechanism.resolver(base)
+    rng = np.random.default_rng(11)
+    start = _vectors(base)
+    across = np.array([0.0, 1.0, 1.0, 0.0, 0.01, 0.01])  # nothing along the free shaft axis x
+    statuses = []
+    for _ in range(40):
+        vector = start + 0.3 * across * rng.standard_normal(start.size)
+        monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "0")
+        try:
+            expected = reference.solve(_with(base, vector), warm_start=False)
+        except clearance_pin.UnboundedLoadError:
+            continue  # an axial share the journals do not hold
+        finally:
+            monkeypatch.setenv("CLEARANCE_PIN_COMPILED", "1")
+        given = vector.copy()
+        answer = resolver.solve(given)
+        given[:] = np.nan  # the answer keeps its own copy
+        statuses.append(answer.solver_status)
+        assert answer.ok and not expected.solver_status.endswith("(compiled)")
+        play = max(c.clearance for c in expected.contacts)
+        for joint, torsor in expected.torsors.items():
+            assert np.abs(answer.torsors[joint] - torsor).max() <= 1e-11 * play
+        assert np.array_equal(_vectors(answer.loads), vector)
+        assert all(value is not dataclasses.MISSING for value in vars(answer).values())
+    # the first solve of a mechanism goes the NumPy way, its re-solves the compiled one
+    assert len(statuses) > 30 and all(s.endswith("(compiled)") for s in statuses[1:]), statuses
+
+
+@pytest.mark.parametrize(
+    "values, accepted",
+    [
+        ([1e308, 1e308, 1e308], True),  # finite, though their sum overflows
+        ([1.0, np.inf, -np.inf], False),
+        ([1.0, np.nan, 0.0], False),
+        ([1.0, 2.0], False),
+        (np.array([1.0, 2.0, 3.0j]), False),
+        (["a", "b", "c"], False),
+        ((1, 2, 3), True),
+    ],
+)
+def test_resolver_values_check(values, accepted):
+    vector = _finite_vector(values, 3)
+    assert (vector is not None) == accepted
+    if accepted:
+        assert vector.dtype == float and np.array_equal(vector, np.asarray(values, dtype=float))

@@ -17,15 +17,16 @@ on the first re-solve.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import threading
 import time
+from typing import NamedTuple
 
 import numpy as np
 
 from ..model.loads import Gravity, PointForce, Torque
 from .cone_solver import WARM_MAX_SIZE, ConeSolution, acceptance
-from .frozen import frozen_instance
 from .kkt import ACTIVE_GAP, POLISH_TOL, PROXIMAL, UNLOADED
 from .lazy import LazySequence
 from .linear_answer import linear_equilibrium
@@ -103,6 +104,23 @@ def compiled_kernel(engage: int = 0):
     return _loaded["kernel"]
 
 
+class BoundLoads(NamedTuple):
+    """One set of loaded points (kinds, links, points, gravity) on one geometry: the map
+    W = A p + w0 from their force and torque vectors p to the body wrenches, and the kernel's
+    arguments from A to the guess (:func:`.kernel.solve_cases`), bound once."""
+
+    matrix: np.ndarray
+    constant: np.ndarray
+    arguments: tuple
+
+
+# the residuals in solve_cases' row from column 3 on (kernel.ENERGY's docstring), and the others
+_RESIDUAL_COLUMNS = ("unblocked_load", "stationarity", "feasibility", "complementarity",
+                     "statics", "max_violation_m", "max_violation_rel", "largest_rotation_rad")  # fmt: skip
+_RESIDUAL_DEFAULTS = {field.name: field.default for field in dataclasses.fields(Residuals)}
+_RESIDUAL_DEFAULTS["dual_infeasibility"] = 0.0
+
+
 class FastTerms:
     """The arrays of one prepared geometry in the kernel's layout (contiguous float64 / int64),
     and the load maps of the sets of loaded points seen so far."""
@@ -137,7 +155,7 @@ class FastTerms:
         self.clearance = float(terms.bounds.max(initial=0.0))
         self.accept = acceptance(prepared.geometry.conditioning)
         self.centre_rounds = ROUNDS + CENTRE_ROUNDS_PER_CONTACT * stack.count
-        self.load_maps: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self.load_maps: dict[tuple, BoundLoads] = {}
         # the columns of solve_cases' rows after its scalars (kernel.solve_cases)
         m, joints, bodies = stack.count, len(terms.joint_names), prepared.bodies
         sizes = (
@@ -163,6 +181,14 @@ class FastTerms:
             np.ones((POOL, m)),
             np.zeros(2, dtype=np.int64),
         )
+        # solve_cases' arguments after the guess, for a pooled warm re-solve, bound once
+        self._warm_tail = (self.accept, WARM_ROUNDS, self.centre_rounds, ITERATIONS, TOLERANCES,
+                           *self.answer, False, True, *self.pool, True)  # fmt: skip
+        self._residual_constants = {
+            **_RESIDUAL_DEFAULTS,
+            "clearance_m": self.clearance,
+            "closure_conditioning": prepared.geometry.conditioning,
+        }
 
     def solve(self, cases, load_matrix, load_constant, y, multipliers, signs, chain=False,
               allow_flat=True, warm_rounds=ROUNDS, centre=True, pooled=False):  # fmt: skip
@@ -176,6 +202,15 @@ class FastTerms:
             *self.cone, _vector(y), _vector(multipliers), _vector(signs), self.accept,
             warm_rounds, self.centre_rounds if centre else 0, ITERATIONS, TOLERANCES,
             *self.answer, chain, allow_flat, *self.pool, pooled,
+        )  # fmt: skip
+
+    def solve_warm(self, cases, bound: BoundLoads, warm: ConeSolution):
+        """:meth:`solve` of ``cases`` with the loads ``bound`` (:meth:`load_binding`), each from
+        the nearest recent answer, ``warm`` while there are none, in WARM_ROUNDS rounds, then
+        from the centre: the re-solve's one compiled call, its other arguments bound once."""
+        return self.kernel.solve_cases(
+            cases, *bound.arguments, _vector(warm.y), _vector(warm.multipliers),
+            _vector(warm.signs), *self._warm_tail,
         )  # fmt: skip
 
     def forget(self) -> None:
@@ -225,30 +260,24 @@ class FastTerms:
         )
 
     def residuals(self, row: np.ndarray) -> Residuals:
-        """The measured residuals of one row of :meth:`solve`."""
-        (_, _, _, share, stationarity, feasibility, complementarity, statics, violation, relative,
-         rotation) = row[: self.kernel.ENERGY].tolist()  # fmt: skip
-        return frozen_instance(
-            Residuals,
-            {
-                "stationarity": stationarity,
-                "dual_infeasibility": 0.0,
-                "statics": statics,
-                "max_violation_m": violation,
-                "max_violation_rel": relative,
-                "clearance_m": self.clearance,
-                "feasibility": feasibility,
-                "complementarity": complementarity,
-                "closure_conditioning": self.prepared.geometry.conditioning,
-                "largest_rotation_rad": rotation,
-                "unblocked_load": share,
-            },
-        )
+        """The measured residuals of one row of :meth:`solve` (filled without the dataclass's
+        ``__init__``, as :class:`.frozen.FieldTemplate`: a re-solve's few microseconds)."""
+        residuals = object.__new__(Residuals)
+        state = residuals.__dict__
+        state.update(self._residual_constants)
+        state.update(zip(_RESIDUAL_COLUMNS, row[3 : self.kernel.ENERGY].tolist()))
+        return residuals
 
     def load_map(self, loads) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         r"""(p, A, w0): the loads' force and torque vectors stacked (3 k,) [N, N m] and the map
         :math:`W = A p + w_0` to the body wrenches at the world origin (bodies * 6,) (the fixed
         loads, gravity, in :math:`w_0`); None for a load of another kind."""
+        bound = self.load_binding(loads)
+        return None if bound is None else (bound[0], bound[1].matrix, bound[1].constant)
+
+    def load_binding(self, loads) -> tuple[np.ndarray, BoundLoads] | None:
+        """(p, the :class:`BoundLoads` of the loads' kinds, links and points), kept per set of
+        loaded points; None for a load of another kind."""
         key, vectors = [], []
         for load in loads:
             kind = type(load)
@@ -263,13 +292,18 @@ class FastTerms:
             else:
                 return None
         signature = tuple(key)
-        built = self.load_maps.get(signature)
-        if built is None:
-            built = self._build_load_map(loads)
+        bound = self.load_maps.get(signature)
+        if bound is None:
+            matrix, constant = self._build_load_map(loads)
+            bound = BoundLoads(matrix, constant, (matrix, constant, *self._load_arguments()))
             if len(self.load_maps) < LOAD_MAPS_KEPT:
-                self.load_maps[signature] = built
+                self.load_maps[signature] = bound
         params = np.concatenate(vectors) if vectors else np.zeros(0)
-        return params, built[0], built[1]
+        return params, bound
+
+    def _load_arguments(self) -> tuple:
+        """solve_cases' arguments between the load map and the guess."""
+        return (self.load_rows, self.prepared.size_x, self.weights, *self.cone)
 
     def load_cases(self, cases) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """:meth:`load_map` of many load cases at once: (P (N, 3 k), A, w0) when every case has
@@ -365,21 +399,24 @@ def solve_compiled(
             a backend the caller named finds the cold answer).
     """
     kernel = fast.kernel
-    mapped = fast.load_map(loads)
+    mapped = fast.load_binding(loads)
     if mapped is None:
         return None
-    params, load_matrix, load_constant = mapped
+    params, bound = mapped
     prepared = fast.prepared
     cases = params.reshape(1, -1)
     iterations, build_time = 0, 0.0
     code, status = kernel.UNDECIDED, ""
-    if warm is not None and warm.y.shape == (fast.size,):
-        solved = fast.solve(cases, load_matrix, load_constant, warm.y, warm.multipliers,
-                            warm.signs, warm_rounds=WARM_ROUNDS, centre=from_centre,
+    if warm is not None and warm.y.shape == (fast.size,) and from_centre:
+        solved = fast.solve_warm(cases, bound, warm)
+        code = solved[0][0, 0]
+    elif warm is not None and warm.y.shape == (fast.size,):
+        solved = fast.solve(cases, bound.matrix, bound.constant, warm.y, warm.multipliers,
+                            warm.signs, warm_rounds=WARM_ROUNDS, centre=False,
                             pooled=True)  # fmt: skip
         code = solved[0][0, 0]
     elif from_centre:
-        solved = fast.solve_cold(cases, load_matrix, load_constant)
+        solved = fast.solve_cold(cases, bound.matrix, bound.constant)
         code = solved[0][0, 0]
     if code in (kernel.UNBOUNDED, kernel.NO_WORK):
         return None  # the NumPy path raises or answers "indeterminate"
@@ -387,7 +424,7 @@ def solve_compiled(
         status = STARTS[solved[0][0, kernel.START]]
     else:
         code, objective, sigma, scaled, load_size, share = kernel.load_objective(
-            params, load_matrix, load_constant, fast.load_rows, prepared.size_x, fast.size,
+            params, bound.matrix, bound.constant, fast.load_rows, prepared.size_x, fast.size,
             fast.weights, TOLERANCES,
         )  # fmt: skip
         if code != kernel.SOLVED:
@@ -400,19 +437,43 @@ def solve_compiled(
         y, lam, backend_status, iterations = built.run(problem)
         status = f"{backend_status} (compiled polish)"
         build_time = (built.build_time if built_now else 0.0) + getattr(built, "setup_time", 0.0)
-        solved = fast.solve(cases, load_matrix, load_constant, y, lam, geometry.stack.sides(y))
+        solved = fast.solve(cases, bound.matrix, bound.constant, y, lam, geometry.stack.sides(y))
         if solved[0][0, 0] != kernel.SOLVED:
             return None
     rows, flat = solved
-    answer = fast.parts(rows[0])
-    residuals = fast.residuals(rows[0])
+    return _verified_answer(fast, rows[0], flat, loads, status, iterations, build_time, started,
+                            output_points)  # fmt: skip
+
+
+def resolve_compiled(fast: FastTerms, bound: BoundLoads, vector: np.ndarray, warm: ConeSolution,
+                     loads_of, started: float, output_points: tuple) -> Equilibrium | None:  # fmt: skip
+    """A planner's re-solve (:mod:`.resolver`): the loads ``bound`` with the force and torque
+    vectors ``vector`` (3 k,) [N, N m], the kernel's pooled warm start then its centred start,
+    or None (the caller then solves the loads ``loads_of()`` the general way). ``loads_of``
+    builds the load objects of the answer's ``loads``, when read."""
+    rows, flat = fast.solve_warm(vector.reshape(1, -1), bound, warm)
+    row = rows[0]
+    if row[0] != fast.kernel.SOLVED:
+        return None
+    status = STARTS[row[fast.kernel.START]]
+    return _verified_answer(fast, row, flat, LazySequence(loads_of), status, 0, 0.0, started,
+                            output_points)  # fmt: skip
+
+
+def _verified_answer(fast: FastTerms, row, flat, loads, status: str, iterations: int,
+                     build_time: float, started: float, output_points) -> Equilibrium | None:  # fmt: skip
+    """The Equilibrium of a kernel's SOLVED row when its residuals pass (the answer is kept as
+    the next warm start), else None."""
+    residuals = fast.residuals(row)
     if not residuals.ok():
         return None
+    answer = fast.parts(row)
+    prepared = fast.prepared
     prepared.mechanism.cache.warm[prepared.signature] = ConeSolution(
         answer["y"], answer["multipliers"], answer["signs"], status, iterations, True
     )
     return fast.equilibrium(
-        rows[0],
+        row,
         flat,
         loads,
         ("optimal", status, iterations, True),
@@ -438,10 +499,12 @@ def _vector(values) -> np.ndarray:
 
 __all__ = [
     "COMPILE_AFTER",
+    "BoundLoads",
     "FastTerms",
     "compiled_kernel",
     "fast_terms",
     "kernel_load_time",
     "load_kernel",
+    "resolve_compiled",
     "solve_compiled",
 ]

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .frozen import frozen_instance
+from .frozen import FieldTemplate
 from .lazy import LazyMapping, LazySequence, placements
 from .prepared import PreparedGeometry
 from .reduction import ReducedProblem
@@ -95,32 +95,32 @@ def linear_equilibrium(
     iterations, polished), ``times`` = (build, solve) [s]; contacts and body motions are computed
     when read (:mod:`.lazy`)."""
     mechanism = prepared.mechanism
-    contacts = LazySequence(lambda: _contacts(prepared, gaps, force_rows, multipliers))
-    status, solver_status, iterations, polished = outcome
-    return frozen_instance(
-        Equilibrium,
-        dict(
-            formulation="linear",
-            torsors=dict(zip(prepared.joint_names, torsor_array)),
-            body_motions=LazyMapping(lambda: prepared.body_motions(twists, mechanism.model.names)),
-            contacts=contacts,
-            energy=energy,
-            status=status,
-            solver_status=solver_status,
-            iterations=iterations,
-            residuals=measured,
-            free_motions=free_motions,
-            build_time=times[0],
-            solve_time=times[1],
-            polished=polished,
-            body_placements=placements(twists, prepared.configuration.oMi),
-            mechanism=mechanism,
-            configuration=prepared.configuration,
-            body_twists=twists,
-            loads=tuple(loads),
-            output_points=output_points,
-        ),
+    template = prepared.__dict__.get("_answer_template")
+    if template is None:
+        template = prepared.__dict__["_answer_template"] = FieldTemplate(
+            Equilibrium,
+            {
+                "formulation": "linear",
+                "mechanism": mechanism,
+                "configuration": prepared.configuration,
+            },
+        )
+    equilibrium, state = template.new()
+    state["status"], state["solver_status"], state["iterations"], state["polished"] = outcome
+    state["torsors"] = dict(zip(prepared.joint_names, torsor_array))
+    state["body_motions"] = LazyMapping(
+        lambda: prepared.body_motions(twists, mechanism.model.names)
     )
+    state["contacts"] = LazySequence(lambda: _contacts(prepared, gaps, force_rows, multipliers))
+    state["energy"] = energy
+    state["residuals"] = measured
+    state["free_motions"] = free_motions
+    state["build_time"], state["solve_time"] = times
+    state["body_placements"] = placements(twists, prepared.configuration.oMi)
+    state["body_twists"] = twists
+    state["loads"] = loads if isinstance(loads, (tuple, LazySequence)) else tuple(loads)
+    state["output_points"] = output_points
+    return equilibrium
 
 
 def _contacts(prepared: PreparedGeometry, gaps, force_rows, multipliers) -> tuple[Contact, ...]:

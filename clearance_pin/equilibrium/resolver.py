@@ -5,21 +5,27 @@ the output points and the prepared geometry; ``resolver.solve(values)`` takes th
 torque vectors of those loads, in their order, as one array (k, 3) or (3 k,) [N, N m] (the way a
 prebuilt optimiser takes a new cost vector) and returns the verified
 :class:`~.result.Equilibrium`, the same answer as ``mechanism.solve`` of those loads, at the
-same cost (measured: the argument checks and look-ups it saves are a few microseconds); a
-convenience for a planner's loop, not a faster path.
+answer. Once the compiled kernel is engaged (:mod:`.fast_path`), a re-solve is one compiled
+call on arguments bound when first used, and the load objects of the answer's ``loads`` are
+built when read: the checks, look-ups and load objects of ``mechanism.solve`` are skipped (about
+half of its time on the paper's shafts).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from ..arguments import check_solve
 from ..errors import ArgumentError, ClearancePinError, SolverError
 from ..model.loads import PointForce, Torque, with_vector
+from .blocks import block_structure
+from .fast_path import BoundLoads, FastTerms, fast_terms
 from .outputs import resolve_outputs
 from .prepared import prepared_geometry
 from .result import Equilibrium
-from .solve import solve_linear
+from .solve import resolve_linear, solve_linear
 
 
 class Resolver:
@@ -57,26 +63,32 @@ class Resolver:
         self._points = resolve_outputs(mechanism, self.loads, outputs)
         self._prepared = prepared_geometry(mechanism, self._q)  # kept: valid while we hold it
         self._options = (tol, backend, warm_start)
+        # the compiled way, as solve_linear takes it (not for trees of closed-form blocks), here
+        # for warm re-solves with the kernel's own starts
+        self._compiled = (
+            warm_start
+            and backend == "auto"
+            and block_structure(self._prepared.geometry, bool(mechanism.loop_joints)) is None
+        )
+        self._bound: tuple[FastTerms, BoundLoads] | None = None  # once the kernel is engaged
 
     def solve(self, values) -> Equilibrium:
         """The equilibrium with the force and torque vectors ``values`` ((k, 3) or (3 k,) [N,
         N m], in the order of :attr:`loads`); raises like :meth:`Mechanism.solve`."""
-        try:
-            vector = None if np.iscomplexobj(values) else np.asarray(values, dtype=float).ravel()
-        except (TypeError, ValueError):
-            vector = None
-        if vector is None or vector.shape != (self.size,) or not np.isfinite(vector).all():
+        vector = _finite_vector(values, self.size)
+        if vector is None:
             raise ArgumentError(
                 "values", f"{self.size} finite numbers (the loads' vectors [N, N m])", values
             )
-        loads = list(self.loads)
-        for k, index in enumerate(self._varying):
-            loads[index] = with_vector(loads[index], vector[3 * k : 3 * k + 3])
+        if self._compiled:
+            answer = self._resolve_compiled(vector)
+            if answer is not None:
+                return answer
         mechanism, (tol, backend, warm_start) = self.mechanism, self._options
         try:
             return solve_linear(
                 mechanism,
-                tuple(loads),
+                self._loads_with(vector),
                 self._q,
                 tol,
                 backend,
@@ -91,6 +103,48 @@ class Resolver:
                 f"numerical failure in {mechanism.name!r} ({type(exc).__name__}: {exc})",
                 "numerical error",
             ) from None
+
+    def _resolve_compiled(self, vector: np.ndarray) -> Equilibrium | None:
+        """The compiled re-solve (:func:`.solve.resolve_linear`), None when the kernel is not
+        engaged or does not verify this load."""
+        if self._bound is None:
+            fast = fast_terms(self._prepared)
+            if fast is None:
+                return None
+            binding = fast.load_binding(self.loads)
+            if binding is None:
+                self._compiled = False  # loads the kernel does not take: always the NumPy way
+                return None
+            self._bound = (fast, binding[1])
+        fast, bound = self._bound
+        return resolve_linear(
+            self.mechanism, fast, bound, vector, lambda: self._loads_with(vector), self._points
+        )
+
+    def _loads_with(self, vector: np.ndarray) -> tuple:
+        """:attr:`loads` with the force and torque vectors ``vector`` (3 k,)."""
+        loads = list(self.loads)
+        for k, index in enumerate(self._varying):
+            loads[index] = with_vector(loads[index], vector[3 * k : 3 * k + 3])
+        return tuple(loads)
+
+
+def _finite_vector(values, size: int) -> np.ndarray | None:
+    """``values`` as a new float vector (size,) (a copy: the answer's loads are built from it
+    when read), None when they are not ``size`` finite real numbers."""
+    if getattr(getattr(values, "dtype", None), "kind", "") == "c":
+        return None
+    try:
+        vector = np.array(values, dtype=float).ravel()
+    except (TypeError, ValueError):
+        return None
+    if vector.shape != (size,):
+        return None
+    # a finite sum proves every entry finite (an inf or NaN entry makes it inf or NaN); else
+    # (or an overflow of huge entries) each entry is tested
+    if not math.isfinite(sum(vector.tolist())) and not np.isfinite(vector).all():
+        return None
+    return vector
 
 
 __all__ = ["Resolver"]

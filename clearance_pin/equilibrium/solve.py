@@ -18,7 +18,7 @@ from ..errors import ConditioningWarning, SolverError
 from .block_verify import closed_form_answer
 from .blocks import block_structure
 from .cone_solver import WarmBet, backend_for, solve_cone
-from .fast_path import fast_terms, solve_compiled
+from .fast_path import BoundLoads, FastTerms, fast_terms, resolve_compiled, solve_compiled
 from .linear_answer import assemble_linear
 from .prepared import PreparedGeometry, prepared_geometry
 from .result import Equilibrium
@@ -166,6 +166,21 @@ def _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, starte
     return answer
 
 
+def resolve_linear(mechanism, fast: FastTerms, bound: BoundLoads, vector: np.ndarray, loads_of,
+                   output_points: tuple) -> Equilibrium | None:  # fmt: skip
+    """A resolver's warm re-solve by the kernel (:func:`.fast_path.resolve_compiled`) with the
+    force and torque vectors ``vector`` of the loads ``bound``, warned about like any, or None
+    (no warm start yet, or not verified: the caller solves the general way)."""
+    started = time.perf_counter()
+    warm = mechanism.cache.warm.get(fast.prepared.signature)
+    if warm is None or warm.y.shape != (fast.size,):
+        return None
+    answer = resolve_compiled(fast, bound, vector, warm, loads_of, started, output_points)
+    if answer is not None:
+        _warn_if_inaccurate(mechanism, answer, fast.prepared.geometry.conditioning)
+    return answer
+
+
 def _warn_if_inaccurate(mechanism, equilibrium: Equilibrium, conditioning: float) -> None:
     """ConditioningWarning for a finite rotation or a nearly singular loop closure."""
     largest_rotation = equilibrium.residuals.largest_rotation_rad or 0.0
@@ -189,4 +204,4 @@ def _warn_if_inaccurate(mechanism, equilibrium: Equilibrium, conditioning: float
         )
 
 
-__all__ = ["solve_linear"]
+__all__ = ["resolve_linear", "solve_linear"]
