@@ -40,13 +40,14 @@ class EquilibriumBatch(Sequence):
 
     Items are :class:`~clearance_pin.equilibrium.result.Equilibrium` objects (or the error of a
     case, with ``errors="return"``), assembled on first access when the batch was solved on
-    stacked arrays. ``torsors(joint)``, ``ok``, ``energy`` and ``statuses`` read the whole batch
-    without assembling each item.
+    stacked arrays (an item given as a callable, or None with ``build(index)``). ``torsors(joint)``,
+    ``ok``, ``energy`` and ``statuses`` read the whole batch without assembling each item.
     """
 
-    def __init__(self, items: list, arrays: dict | None = None):
+    def __init__(self, items: list, arrays: dict | None = None, build=None):
         self._items = items
         self._arrays = arrays
+        self._build = build
 
     def __len__(self) -> int:
         return len(self._items)
@@ -55,7 +56,9 @@ class EquilibriumBatch(Sequence):
         if isinstance(index, slice):
             return [self[i] for i in range(*index.indices(len(self)))]
         item = self._items[index]
-        if callable(item):
+        if item is None:
+            item = self._items[index] = self._build(index % len(self._items))
+        elif callable(item):
             item = self._items[index] = item()
         return item
 
@@ -384,15 +387,14 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
     seed = mechanism.cache.warm.get(prepared.signature)
     if seed is None:
         return None
-    try:
-        resolved = [
-            mechanism.resolve_loads(case_loads, options["gravity"]) for case_loads, _ in cases
-        ]
+    try:  # the loads every case shares after its own (gravity); the first case resolved them
+        appended = mechanism.resolve_loads((), options["gravity"])
     except ClearancePinError:
-        return None  # a case's loads are refused: the NumPy batch reports it in its place
-    mapped = fast.load_cases(resolved[1:])
-    if mapped is None:
         return None
+    column = cases.load_column() if isinstance(cases, Cases) else [c for c, _ in cases]
+    mapped = fast.load_cases(column[1:], appended)
+    if mapped is None:
+        return None  # cases of other loaded points (or refused loads): the NumPy batch
     params, load_matrix, load_constant = mapped
     rows, _ = fast.solve(
         params,
@@ -415,27 +417,26 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
     )
     x_all[1:][good] = rows[good, x_column : x_column + prepared.size_x]
     batched = np.concatenate([[False], good])
-    items: list = [first]
-    for k, verified in enumerate(good.tolist()):
-        if verified:
-            items.append(_compiled_item(fast, rows[k], resolved[k + 1]))
-        else:
-            items.append(_solve_chunk(mechanism, [cases[k + 1]], options, errors, start=k + 1)[0])
+    items: list = [first]  # None: a verified case, assembled when read (_compiled_item)
+    for k, verified in enumerate(good.tolist(), start=1):
+        items.append(
+            None if verified else _solve_chunk(mechanism, [cases[k]], options, errors, start=k)[0]
+        )
     torsor_maps = {name: prepared.maps.joint_torsor[name] for name in mechanism.joints}
-    return EquilibriumBatch(items, {"x": x_all, "batched": batched, "torsor_maps": torsor_maps})
+    return EquilibriumBatch(
+        items,
+        {"x": x_all, "batched": batched, "torsor_maps": torsor_maps},
+        lambda i: _compiled_item(fast, rows[i - 1], (*column[i], *appended)),
+    )
 
 
 def _compiled_item(fast, row, loads):
-    """The Equilibrium of one case of a compiled batch, assembled when first read (its flat
-    directions, if any, found and described then)."""
-
-    def build():
-        answer = fast.parts(row)
-        flat, _ = fast.prepared.flat_directions(answer["y"], answer["multipliers"], answer["signs"])
-        outcome = ("optimal", "batched Newton (compiled)", 0, True)
-        return fast.equilibrium(row, flat, loads, outcome, (0.0, 0.0), (), answer)
-
-    return build
+    """The Equilibrium of one case of a compiled batch, its ``row`` of the kernel's answer (its
+    flat directions, if any, found and described now)."""
+    answer = fast.parts(row)
+    flat, _ = fast.prepared.flat_directions(answer["y"], answer["multipliers"], answer["signs"])
+    outcome = ("optimal", "batched Newton (compiled)", 0, True)
+    return fast.equilibrium(row, flat, loads, outcome, (0.0, 0.0), (), answer)
 
 
 def _unique(stack, seed, y, multipliers, verified):

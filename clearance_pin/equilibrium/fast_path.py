@@ -305,29 +305,35 @@ class FastTerms:
         """solve_cases' arguments between the load map and the guess."""
         return (self.load_rows, self.prepared.size_x, self.weights, *self.cone)
 
-    def load_cases(self, cases) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """:meth:`load_map` of many load cases at once: (P (N, 3 k), A, w0) when every case has
-        the first case's loads (kinds, links, points, gravity) with other force and torque
-        vectors; None otherwise."""
+    def load_cases(
+        self, cases, appended: tuple = ()
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """:meth:`load_map` of many load cases at once, each case's loads followed by the loads
+        ``appended`` (gravity): (P (N, 3 k), A, w0) when every case has the first case's loads
+        (kinds, links, points, gravity) with other force and torque vectors; None otherwise
+        (another set of loaded points, or a case that is not a sequence of loads)."""
         if not cases:
             return None
-        mapped = self.load_map(cases[0])
+        try:
+            first = (*cases[0], *appended)
+        except TypeError:
+            return None
+        mapped = self.load_map(first)
         if mapped is None:
             return None
-        first = cases[0]
-        size = len(first)
-        kinds = [type(load) for load in first]
-        links = [getattr(load, "link", None) for load in first]
-        fixed = [
-            load.point.tobytes() if kind is PointForce else
-            load.acceleration.tobytes() if kind is Gravity else None
-            for load, kind in zip(first, kinds)
+        # per position of the first case: (kind, link, the point or gravity it must equal)
+        layout = [
+            (type(load), getattr(load, "link", None),
+             load.point.tobytes() if type(load) is PointForce else
+             load.acceleration.tobytes() if type(load) is Gravity else None)
+            for load in first[: len(first) - len(appended)]
         ]  # fmt: skip
+        size = len(layout)
         vectors = []
         for loads in cases:
-            if len(loads) != size:
+            if type(loads) not in (tuple, list) or len(loads) != size:
                 return None
-            for load, kind, link, known in zip(loads, kinds, links, fixed):
+            for load, (kind, link, known) in zip(loads, layout):
                 if type(load) is not kind:
                     return None
                 if kind is PointForce:
@@ -340,6 +346,9 @@ class FastTerms:
                     vectors.append(load.torque)
                 elif load.acceleration.tobytes() != known:
                     return None
+        for load in appended:  # the same in every case
+            if type(load) is not Gravity:
+                return None
         params = np.array(vectors, dtype=float).reshape(len(cases), -1)
         return params, mapped[1], mapped[2]
 
