@@ -193,3 +193,42 @@ def test_an_error_raised_names_its_case(model):
     with ThreadPoolExecutor(2) as pool, pytest.raises(cp.LoadError) as caught:
         mechanism.solve_many(cases, executor=pool, chunks=3)
     assert caught.value.__notes__ == ["solve_many: in case 20 (counting from 0)"]
+
+
+def test_compiled_batch_with_gravity_carries_each_case_and_gravity():
+    """A loop mechanism's compiled batch with gravity on: each case equals a single solve of its
+    loads with gravity (1e-11 of the play: the kernel's chain and a single solve's start differ
+    at round-off), its ``loads`` are the case's then the gravity, and a case with another
+    loaded point sends the batch back to the NumPy path with the same answers."""
+    path = MODELS / "four_bar.urdf"
+    mechanism, reference = cp.load(path), cp.load(path)
+    base = [load for load in mechanism.loads if isinstance(load, (PointForce, Torque))]
+    assert base
+    rng = np.random.default_rng(5)
+    cases = []
+    for _ in range(40):
+        case = []
+        for load in base:
+            scale = 1.0 + 0.2 * rng.standard_normal()
+            case.append(
+                PointForce(load.link, force=load.force * scale, point=load.point)
+                if isinstance(load, PointForce)
+                else Torque(load.link, load.torque * scale)
+            )
+        cases.append(case)
+    play = max(joint.clearance.max_play for joint in mechanism.joints.values())
+    for variant in (
+        cases,
+        [*cases[:20], [*cases[20], Torque(base[0].link, (0.0, 0.0, 0.0))], *cases[21:]],
+    ):
+        batch = mechanism.solve_many(variant, gravity=True)
+        assert batch.ok.all()
+        compiled = sum(status == "batched Newton (compiled)" for status in batch.statuses)
+        assert compiled > 30 if variant is cases else compiled == 0, batch.statuses
+        for i in (1, 17, 20, 39):
+            single = reference.solve(variant[i], gravity=True)
+            assert isinstance(batch[i].loads[-1], cp.Gravity)
+            assert len(batch[i].loads) == len(variant[i]) + 1
+            for joint, torsor in single.torsors.items():
+                assert np.abs(batch.torsors(joint)[i] - torsor).max() <= 1e-11 * play
+                assert np.abs(batch[i].torsors[joint] - torsor).max() <= 1e-11 * play
