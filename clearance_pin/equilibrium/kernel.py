@@ -123,13 +123,22 @@ def _sides(matrix, offset, starts, is_norm, y):
 @njit
 def _gradients(matrix, offset, starts, is_norm, signs, contacts, y):
     """(phi_j on the sides ``signs``, gradients (k, r)) of the ``contacts``."""
+    values = np.empty(contacts.size)
+    gradients = np.zeros((contacts.size, y.size))
+    _gradients_into(matrix, offset, starts, is_norm, signs, contacts, y, values, gradients)
+    return values, gradients
+
+
+@njit
+def _gradients_into(matrix, offset, starts, is_norm, signs, contacts, y, values, gradients):
+    """:func:`_gradients` written into ``values`` (k,) and ``gradients`` (k, r) (Newton's
+    iterations re-use them: an allocation costs more than these few products)."""
     r = y.size
-    k = contacts.size
-    values = np.empty(k)
-    gradients = np.zeros((k, r))
-    for a in range(k):
+    for a in range(contacts.size):
         j = contacts[a]
         total = 0.0
+        for c in range(r):
+            gradients[a, c] = 0.0
         for i in range(starts[j], starts[j + 1]):
             image = offset[i]
             for c in range(r):
@@ -143,13 +152,23 @@ def _gradients(matrix, offset, starts, is_norm, signs, contacts, y):
             for c in range(r):
                 gradients[a, c] += weight * matrix[i, c]
         values[a] = total - 1.0
-    return values, gradients
 
 
 @njit
 def _hessian(matrix, starts, is_norm, contacts, multipliers, r):
     r""":math:`\nabla^2 L = \sum_{j \in A,\ norm} 2 \lambda_j P_j^T P_j`, (r, r)."""
     hessian = np.zeros((r, r))
+    _hessian_into(matrix, starts, is_norm, contacts, multipliers, hessian)
+    return hessian
+
+
+@njit
+def _hessian_into(matrix, starts, is_norm, contacts, multipliers, out):
+    """:func:`_hessian` written into the top-left (r, r) block of ``out``."""
+    r = matrix.shape[1]
+    for c in range(r):
+        for d in range(r):
+            out[c, d] = 0.0
     for a in range(contacts.size):
         j = contacts[a]
         if not is_norm[j]:
@@ -159,24 +178,32 @@ def _hessian(matrix, starts, is_norm, contacts, multipliers, r):
             for c in range(r):
                 scaled = weight * matrix[i, c]
                 for d in range(r):
-                    hessian[c, d] += scaled * matrix[i, d]
-    return hessian
+                    out[c, d] += scaled * matrix[i, d]
 
 
 @njit
 def _lu_solve(matrix, right):
     """x with matrix x = right by Gaussian elimination with partial pivoting; ok False when a
     pivot is zero or not finite (the matrix is singular)."""
+    a = np.empty_like(matrix)
+    x = np.empty_like(right)
+    return _lu_solve_into(matrix, right, a, x), x
+
+
+@njit
+def _lu_solve_into(matrix, right, a, x):
+    """:func:`_lu_solve` in the workspaces ``a`` (n, n) and ``x`` (n,) (x holds the solution):
+    ok."""
     size = right.size
-    a = matrix.copy()
-    x = right.copy()
+    a[:, :] = matrix
+    x[:] = right
     for col in range(size):
         pivot = col
         for row in range(col + 1, size):
             if abs(a[row, col]) > abs(a[pivot, col]):
                 pivot = row
         if not (abs(a[pivot, col]) > 0.0) or not np.isfinite(a[pivot, col]):
-            return False, x
+            return False
         if pivot != col:
             for c in range(size):
                 a[col, c], a[pivot, c] = a[pivot, c], a[col, c]
@@ -192,7 +219,7 @@ def _lu_solve(matrix, right):
         for c in range(row + 1, size):
             total -= a[row, c] * x[c]
         x[row] = total / a[row, row]
-    return True, x
+    return True
 
 
 @njit
@@ -209,9 +236,13 @@ def _newton(matrix, offset, starts, is_norm, objective, y, lam, signs, contacts,
     residual = np.empty(size)
     converged = tolerances[POLISH] * tolerances[POLISH]
     previous = np.inf
+    # workspaces of every iteration (allocations would cost more than the arithmetic)
+    values = np.empty(k)
     gradients = np.zeros((k, r))
+    factors = np.empty((size, size))
+    step = np.empty(size)
     for iteration in range(iterations + 1):
-        values, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y)
+        _gradients_into(matrix, offset, starts, is_norm, signs, contacts, y, values, gradients)
         for c in range(r):
             total = objective[c]
             for a in range(k):
@@ -228,14 +259,14 @@ def _newton(matrix, offset, starts, is_norm, objective, y, lam, signs, contacts,
         previous = size_now
         if iteration == iterations or (iteration >= 6 and size_now > 1e-8):
             break
-        kkt[:r, :r] = _hessian(matrix, starts, is_norm, contacts, lam, r)
+        _hessian_into(matrix, starts, is_norm, contacts, lam, kkt)
         for a in range(k):
             for c in range(r):
                 kkt[c, r + a] = gradients[a, c]
                 kkt[r + a, c] = gradients[a, c]
             for b in range(k):
                 kkt[r + a, r + b] = -tolerances[PROXIMAL] if a == b else 0.0
-        ok, step = _lu_solve(kkt, residual)
+        ok = _lu_solve_into(kkt, residual, factors, step)
         step_size = 0.0
         for value in step:
             step_size += value * value
