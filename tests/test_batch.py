@@ -232,3 +232,30 @@ def test_compiled_batch_with_gravity_carries_each_case_and_gravity():
             for joint, torsor in single.torsors.items():
                 assert np.abs(batch.torsors(joint)[i] - torsor).max() <= 1e-11 * play
                 assert np.abs(batch[i].torsors[joint] - torsor).max() <= 1e-11 * play
+
+
+def test_compiled_batch_in_chunks_on_threads(monkeypatch):
+    """A compiled batch of 300 cases runs as two chunks on two threads: its answers equal single
+    solves (1e-11 of the play), and the same chunks solved in turn on one thread (a one-core
+    machine) give the same answers bit for bit: they depend on the case count, not the machine."""
+    from clearance_pin.equilibrium import batch as batch_module
+
+    path = MODELS / "younes_sphere_cylinder.urdf"
+    cases = _load_cases(300, seed=9)
+    threaded, alone, reference = cp.load(path), cp.load(path), cp.load(path)
+    for mechanism in (threaded, alone):
+        mechanism.solve(cases[0])
+    on_threads = threaded.solve_many(cases)
+    monkeypatch.setattr(batch_module, "_helper_threads", lambda: None)
+    in_turn = alone.solve_many(cases)
+    assert batch_module.THREAD_CASES * 2 <= len(cases) - 1  # two chunks
+    compiled = sum(status == "batched Newton (compiled)" for status in on_threads.statuses)
+    assert compiled > 250 and on_threads.ok.all()
+    play = max(joint.clearance.max_play for joint in threaded.joints.values())
+    for joint in ("I1", "I2"):
+        assert np.array_equal(on_threads.torsors(joint), in_turn.torsors(joint))
+        for i in (1, 149, 150, 151, 299):
+            single = reference.solve(cases[i], warm_start=False)
+            assert (
+                np.abs(on_threads.torsors(joint)[i] - single.torsors[joint]).max() <= 1e-11 * play
+            )

@@ -10,9 +10,11 @@ each, so warm starts still chain inside a chunk.
 from __future__ import annotations
 
 import itertools
+import os
+import threading
 import time
 from collections.abc import Sequence
-from concurrent.futures import Executor
+from concurrent.futures import Executor, ThreadPoolExecutor
 from dataclasses import replace
 
 import numpy as np
@@ -33,6 +35,9 @@ BATCH_MAX_SIZE = 48  # reduced unknowns beyond which cases are solved one by one
 RESIDUAL_NAMES = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
 REGROUP_ROUNDS = 4  # batched Newton rounds, each seeded by a single solve of a contact set
 PROBE = 16  # cases that show whether a batched round pays before the rest of it runs
+# a compiled batch runs on threads in chunks of at least THREAD_CASES cases (a thread's start
+# and hand-over cost about what 10 cases do), at most THREAD_CHUNKS of them
+THREAD_CASES, THREAD_CHUNKS = 64, 2
 
 
 class EquilibriumBatch(Sequence):
@@ -395,18 +400,7 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
     mapped = fast.load_cases(column[1:], appended)
     if mapped is None:
         return None  # cases of other loaded points (or refused loads): the NumPy batch
-    params, load_matrix, load_constant = mapped
-    rows, _ = fast.solve(
-        params,
-        load_matrix,
-        load_constant,
-        seed.y,
-        seed.multipliers,
-        seed.signs,
-        chain=True,
-        warm_rounds=WARM_ROUNDS,
-        pooled=True,
-    )
+    rows = _compiled_rows(fast, *mapped, seed)
     x_column = next(start for name, start, _, _ in fast.layout if name == "x")
     x_all = np.full((len(cases), prepared.size_x), np.nan)
     statics, violation = rows[:, 7], rows[:, 9]
@@ -428,6 +422,49 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
         {"x": x_all, "batched": batched, "torsor_maps": torsor_maps},
         lambda i: _compiled_item(fast, rows[i - 1], (*column[i], *appended)),
     )
+
+
+def _compiled_rows(fast, params, load_matrix, load_constant, seed) -> np.ndarray:
+    """The kernel's rows of the load cases ``params`` (N, 3 k), each warm-started from the
+    nearest recent answer, in chunks of at least :data:`THREAD_CASES` cases (at most
+    :data:`THREAD_CHUNKS`) solved on threads at once when the machine has the cores (the kernel
+    releases the GIL). The chunks depend on N alone, so the answers do not depend on the
+    machine; each chunk starts from ``seed`` and a copy of the pool (the first chunk: the pool
+    itself, which keeps its answers)."""
+    count = min(THREAD_CHUNKS, len(params) // THREAD_CASES)
+
+    def chunk(part: slice, pool=None) -> np.ndarray:
+        return fast.solve(params[part], load_matrix, load_constant, seed.y, seed.multipliers,
+                          seed.signs, chain=True, warm_rounds=WARM_ROUNDS, pooled=True,
+                          pool=pool)[0]  # fmt: skip
+
+    if count < 2:
+        return chunk(slice(None))
+    edges = np.linspace(0, len(params), count + 1).astype(int).tolist()
+    parts = [slice(a, b) for a, b in itertools.pairwise(edges)]
+    pools = [None, *(fast.pool_copy() for _ in parts[1:])]
+    threads = _helper_threads()
+    if threads is None:  # one core: the same chunks in turn
+        return np.concatenate([chunk(part, pool) for part, pool in zip(parts, pools)])
+    others = [threads.submit(chunk, part, pool) for part, pool in zip(parts[1:], pools[1:])]
+    first = chunk(parts[0])  # on this thread meanwhile
+    return np.concatenate([first, *(future.result() for future in others)])
+
+
+_helpers: list = []  # the helper threads' executor, made on first use (a list: no global)
+_helpers_lock = threading.Lock()
+
+
+def _helper_threads() -> ThreadPoolExecutor | None:
+    """THREAD_CHUNKS - 1 helper threads, kept for the process (starting threads for each
+    batch would cost about what 10 cases do); None on a machine of one core."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if (cores or 1) < 2:
+        return None
+    with _helpers_lock:
+        if not _helpers:
+            _helpers.append(ThreadPoolExecutor(THREAD_CHUNKS - 1, "clearance_pin-batch"))
+    return _helpers[0]
 
 
 def _compiled_item(fast, row, loads):

@@ -191,18 +191,23 @@ class FastTerms:
         }
 
     def solve(self, cases, load_matrix, load_constant, y, multipliers, signs, chain=False,
-              allow_flat=True, warm_rounds=ROUNDS, centre=True, pooled=False):  # fmt: skip
+              allow_flat=True, warm_rounds=ROUNDS, centre=True, pooled=False, pool=None):  # fmt: skip
         """kernel.solve_cases on the load cases ``cases`` (N, 3 k) from the guess (y,
         multipliers, slab sides) in ``warm_rounds`` rounds (0: no guess), else from the centre
         (``centre`` False: not): (rows (N, width), flat directions of the last case).
-        ``pooled``: each case from the nearest of the recent answers (:attr:`pool`) instead,
-        the guess while there are none."""
+        ``pooled``: each case from the nearest of the recent answers (:attr:`pool`, or
+        ``pool``: a :meth:`pool_copy`) instead, the guess while there are none."""
         return self.kernel.solve_cases(
             cases, load_matrix, load_constant, self.load_rows, self.prepared.size_x, self.weights,
             *self.cone, _vector(y), _vector(multipliers), _vector(signs), self.accept,
             warm_rounds, self.centre_rounds if centre else 0, ITERATIONS, TOLERANCES,
-            *self.answer, chain, allow_flat, *self.pool, pooled,
+            *self.answer, chain, allow_flat, *(self.pool if pool is None else pool), pooled,
         )  # fmt: skip
+
+    def pool_copy(self) -> tuple:
+        """A copy of the pool of recent answers, for a chunk of cases solved on another thread
+        (the kernel updates a pool in place)."""
+        return tuple(array.copy() for array in self.pool)
 
     def solve_warm(self, cases, bound: BoundLoads, warm: ConeSolution):
         """:meth:`solve` of ``cases`` with the loads ``bound`` (:meth:`load_binding`), each from

@@ -905,7 +905,7 @@ FLAT_FOUND = 4  # the optimum has flat directions and the caller asked for none 
 FROM_GUESS, FROM_NEIGHBOUR, FROM_CENTRE = 0, 1, 2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # nogil: a batch's chunks run on threads at once
 def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matrix, offset,
                 starts, is_norm, y0, lam0, signs0, accept, warm_rounds, rounds, iterations,
                 tolerances, x_from_y, torsor_rows, twist_rows, contact_rows, contact_offsets,
