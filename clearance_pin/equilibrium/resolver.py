@@ -4,11 +4,11 @@
 the output points and the prepared geometry; ``resolver.solve(values)`` takes the new force and
 torque vectors of those loads, in their order, as one array (k, 3) or (3 k,) [N, N m] (the way a
 prebuilt optimiser takes a new cost vector) and returns the verified
-:class:`~.result.Equilibrium`, the same answer as ``mechanism.solve`` of those loads, at the
-answer. Once the compiled kernel is engaged (:mod:`.fast_path`), a re-solve is one compiled
-call on arguments bound when first used, and the load objects of the answer's ``loads`` are
-built when read: the checks, look-ups and load objects of ``mechanism.solve`` are skipped (about
-half of its time on the paper's shafts).
+:class:`~.result.Equilibrium`, the same answer as ``mechanism.solve`` of those loads. Once the
+compiled kernel is engaged (:mod:`.fast_path`), a re-solve is one compiled call on arguments
+bound when first used, and the load objects of the answer's ``loads`` are built when read: the
+checks, look-ups and load objects of ``mechanism.solve`` are skipped (about a third of a warm
+``solve``'s time on the paper's shafts: 35 against 55 us on 6.2.1 in a tight loop).
 """
 
 from __future__ import annotations
