@@ -8,7 +8,8 @@ prebuilt optimiser takes a new cost vector) and returns the verified
 compiled kernel is engaged (:mod:`.fast_path`), a re-solve is one compiled call on arguments
 bound when first used, and the load objects of the answer's ``loads`` are built when read: the
 checks, look-ups and load objects of ``mechanism.solve`` are skipped (about a third of a warm
-``solve``'s time on the paper's shafts: 35 against 55 us on 6.2.1 in a tight loop).
+``solve``'s time on the paper's shafts: 56 against 82 us on 6.2.1, medians of solves
+interleaved with other work).
 """
 
 from __future__ import annotations
