@@ -444,3 +444,33 @@ def test_a_warm_solve_starts_from_the_nearest_recent_answer(compiled):
     assert fast.pool[4].tolist() == [fast_path.POOL, 3]
     fast.forget()
     assert fast.pool[4].tolist() == [0, 0]
+
+
+def test_the_kernel_loads_in_the_background_after_many_resolves():
+    """Left to itself (no CLEARANCE_PIN_COMPILED), the kernel's load starts after COMPILE_AFTER
+    re-solves on a background thread: the re-solve that starts it returns while the load is
+    still held back (here by an event, standing for a minute of compilation), the solves go on
+    the NumPy way, and once the load ends they go the compiled way."""
+    script = (
+        "import threading, clearance_pin\n"
+        "from clearance_pin.equilibrium import fast_path\n"
+        "fast_path.COMPILE_AFTER = 5\n"
+        "release, original = threading.Event(), fast_path.load_kernel\n"
+        "def held():\n"
+        "    assert release.wait(120)\n"
+        "    return original()\n"
+        "fast_path.load_kernel = held\n"
+        f"m = clearance_pin.load({str(ROOT / 'models/four_bar.urdf')!r})\n"
+        "statuses = [m.solve().solver_status for _ in range(12)]\n"
+        "assert fast_path.kernel_loading(), 'the load ended before it was released'\n"
+        "assert not any(s.endswith('(compiled)') for s in statuses), statuses\n"
+        "release.set()\n"
+        "[t.join(120) for t in threading.enumerate() if t.name == 'clearance_pin-kernel']\n"
+        "assert fast_path.kernel_load_time() is not None and not fast_path.kernel_loading()\n"
+        "status = m.solve().solver_status\n"
+        "assert status.endswith('(compiled)'), status\n"
+    )
+    environment = {
+        k: v for k, v in __import__("os").environ.items() if k != "CLEARANCE_PIN_COMPILED"
+    }
+    subprocess.run([sys.executable, "-c", script], check=True, env=environment, timeout=300)

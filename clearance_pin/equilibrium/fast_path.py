@@ -9,10 +9,10 @@ Whatever the kernel does not verify goes the NumPy way (:mod:`.solve`), which ha
 
 Loading the kernel costs about a second (numba's import and its cache; the first time on a
 machine, compiling: about a minute on a 2-core machine), and it saves about 0.3 ms per re-solve, so it
-loads only where it pays: after :data:`COMPILE_AFTER` re-solves in one process (a planner), or
-when asked (:func:`load_kernel`, at a planner's start-up); never at import, on a first solve or in
-a script of a few hundred solves. ``CLEARANCE_PIN_COMPILED=0`` switches it off, ``=1`` loads it
-on the first re-solve.
+loads only where it pays: after :data:`COMPILE_AFTER` re-solves in one process (a planner), on a
+background thread while the solves go on the NumPy way, or when asked (:func:`load_kernel`, at a
+planner's start-up); never at import, on a first solve or in a script of a few hundred solves.
+``CLEARANCE_PIN_COMPILED=0`` switches it off, ``=1`` loads it on the first re-solve.
 """
 
 from __future__ import annotations
@@ -51,6 +51,7 @@ LOAD_MAPS_KEPT = 64  # sets of loaded points kept per configuration
 COMPILE_AFTER = 2000  # re-solves of a process after which the kernel's load (about 1 s) pays
 
 _lock = threading.Lock()
+_start_lock = threading.Lock()
 _loaded: dict[str, object] = {}  # "kernel": the module, or None when unavailable
 _resolves = [0]  # re-solves of this process so far (a list: updated in place, no global)
 
@@ -82,9 +83,11 @@ def kernel_load_time() -> float | None:
 
 def compiled_kernel(engage: int = 0):
     """The kernel module (:mod:`.kernel`) when loaded; with ``engage`` (the re-solves a call
-    stands for: 1, or a batch's cases), loaded when the process has re-solved
-    :data:`COMPILE_AFTER` times (``CLEARANCE_PIN_COMPILED=1``:
-    at once); None otherwise, when numba is missing or ``CLEARANCE_PIN_COMPILED=0``."""
+    stands for: 1, or a batch's cases), its load starts once the process has re-solved
+    :data:`COMPILE_AFTER` times, on a background thread (:func:`_load_in_background`: the
+    solves go the NumPy way meanwhile, a planner's loop never waits for a compilation);
+    ``CLEARANCE_PIN_COMPILED=1``: loaded at once, on the first re-solve. None otherwise, when
+    numba is missing or ``CLEARANCE_PIN_COMPILED=0``."""
     setting = os.environ.get("CLEARANCE_PIN_COMPILED", "auto")
     if setting == "0":
         return None
@@ -94,7 +97,9 @@ def compiled_kernel(engage: int = 0):
     if "failed" in _loaded:
         return None
     _resolves[0] += engage
-    if setting != "1" and _resolves[0] < COMPILE_AFTER:
+    if setting != "1":
+        if _resolves[0] >= COMPILE_AFTER:
+            _load_in_background()
         return None
     try:
         load_kernel()
@@ -102,6 +107,29 @@ def compiled_kernel(engage: int = 0):
         _loaded["failed"] = True
         return None
     return _loaded["kernel"]
+
+
+def _load_in_background() -> None:
+    """Start :func:`load_kernel` on a daemon thread, once per process (numba's cache files are
+    written to a temporary name and renamed: a process that ends during the compilation leaves
+    no partial cache). A failure (numba missing or unable to compile) leaves the NumPy path."""
+    with _start_lock:  # not _lock, which load_kernel holds while it compiles
+        if "loading" in _loaded:
+            return
+        _loaded["loading"] = True
+
+    def load() -> None:
+        try:
+            load_kernel()
+        except Exception:  # any failure of numba's: the NumPy path answers
+            _loaded["failed"] = True
+
+    threading.Thread(target=load, name="clearance_pin-kernel", daemon=True).start()
+
+
+def kernel_loading() -> bool:
+    """Whether the kernel's load has started and not ended (:func:`compiled_kernel`)."""
+    return "loading" in _loaded and "kernel" not in _loaded and "failed" not in _loaded
 
 
 class BoundLoads(NamedTuple):
@@ -518,6 +546,7 @@ __all__ = [
     "compiled_kernel",
     "fast_terms",
     "kernel_load_time",
+    "kernel_loading",
     "load_kernel",
     "resolve_compiled",
     "solve_compiled",
