@@ -149,11 +149,27 @@ def test_resolver_compiled_answers_equal_the_numpy_path(monkeypatch):
         ([1.0, 2.0], False),
         (np.array([1.0, 2.0, 3.0j]), False),
         (["a", "b", "c"], False),
+        (["1", "2", "3"], False),  # numeric strings: not numbers
+        (np.array([True, False, True]), False),
         ((1, 2, 3), True),
+        (np.array([[1.0, 2.0, 3.0]]), True),  # (k, 3)
+        (np.array([[1.0], [2.0], [3.0]]), False),  # (3, k): read row-major it would be wrong
+        ([[1.0, 2.0], [3.0]], False),  # ragged
     ],
 )
 def test_resolver_values_check(values, accepted):
     vector = _finite_vector(values, 3)
     assert (vector is not None) == accepted
     if accepted:
-        assert vector.dtype == float and np.array_equal(vector, np.asarray(values, dtype=float))
+        expected = np.asarray(values, dtype=float).ravel()
+        assert vector.dtype == float and np.array_equal(vector, expected)
+
+
+def test_resolver_refuses_forces_given_as_columns():
+    """Two loads given as a (3, 2) array (forces as columns) are refused, not read row-major."""
+    mechanism = clearance_pin.load(str(ROOT / "models/younes_two_cylinders.urdf"))
+    resolver = mechanism.resolver()
+    assert resolver.size == 6
+    with pytest.raises(ArgumentError, match="values"):
+        resolver.solve(np.ones((3, 2)))
+    resolver.solve(np.array([[0.0, 1.0, 1.0], [0.0, 0.0, 0.0]]))  # (k, 3): taken

@@ -775,6 +775,21 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
                         active[j] = True
             signs = _sides(matrix, offset, starts, is_norm, y)
             continue
+        # contacts touching at y_new outside the set (a block's corners on one face, reached
+        # one by one) share the load where it is indeterminate: the split over all of them
+        touching = active | (phi_new > -bar)
+        if np.count_nonzero(touching) > contacts.size:
+            sides_new = _sides(matrix, offset, starts, is_norm, y_new)
+            newton_forces = np.zeros(count)
+            for a in range(contacts.size):
+                newton_forces[contacts[a]] = lam_active[a]
+            signs = signs.copy()
+            for j in range(count):
+                if touching[j] and not active[j]:
+                    signs[j] = sides_new[j]
+            contacts = np.flatnonzero(touching)
+            _, gradients = _gradients(matrix, offset, starts, is_norm, signs, contacts, y_new)
+            lam_active = newton_forces[contacts]
         # the forces are unique when the active gradients are independent; otherwise the
         # minimum-norm set balancing the load, when no force of it pulls (kkt's
         # _minimum_norm_forces: statically indeterminate contacts share the load evenly)

@@ -375,6 +375,17 @@ def active_set_solve(
                 active = np.union1d(active, [reached])
             signs = stack.sides(y)
             continue
+        touching = np.union1d(active, np.flatnonzero(phi_new > -max(1e-13, accept)))
+        if touching.size > active.size:
+            # contacts touching at y_new outside the set (a block's corners on one face, reached
+            # one by one) share the load where it is indeterminate: the split over all of them
+            extra = np.setdiff1d(touching, active)
+            signs = signs.copy()
+            signs[extra] = stack.sides(y_new)[extra]
+            gradients = stack.evaluate(y_new, signs)[1][touching]
+            newton_forces = np.zeros(touching.size)
+            newton_forces[np.searchsorted(touching, active)] = lam_active
+            lam_active, active = newton_forces, touching
         lam_new = np.zeros(stack.count)
         lam_new[active] = _minimum_norm_forces(gradients, objective, lam_active)
         measured = {

@@ -79,7 +79,10 @@ class Resolver:
         vector = _finite_vector(values, self.size)
         if vector is None:
             raise ArgumentError(
-                "values", f"{self.size} finite numbers (the loads' vectors [N, N m])", values
+                "values",
+                f"finite real numbers shaped ({self.size // 3}, 3) or ({self.size},): the loads' "
+                "force and torque vectors [N, N m], a row each, in the order of resolver.loads",
+                values,
             )
         if self._compiled:
             answer = self._resolve_compiled(vector)
@@ -132,15 +135,15 @@ class Resolver:
 
 def _finite_vector(values, size: int) -> np.ndarray | None:
     """``values`` as a new float vector (size,) (a copy: the answer's loads are built from it
-    when read), None when they are not ``size`` finite real numbers."""
-    if getattr(getattr(values, "dtype", None), "kind", "") == "c":
-        return None
+    when read), None unless they are real numbers (integers or floats: not booleans, strings or
+    complex numbers) shaped (size / 3, 3) or (size,), all finite."""
     try:
-        vector = np.array(values, dtype=float).ravel()
-    except (TypeError, ValueError):
+        raw = np.asarray(values)
+    except (TypeError, ValueError):  # ragged lists
         return None
-    if vector.shape != (size,):
+    if raw.dtype.kind not in "fiu" or raw.shape not in ((size,), (size // 3, 3)):
         return None
+    vector = raw.astype(float).ravel()  # astype copies
     # a finite sum proves every entry finite (an inf or NaN entry makes it inf or NaN); else
     # (or an overflow of huge entries) each entry is tested
     if not math.isfinite(sum(vector.tolist())) and not np.isfinite(vector).all():
