@@ -17,7 +17,6 @@ planner's start-up); never at import, on a first solve or in a script of a few h
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import threading
 import time
@@ -27,6 +26,7 @@ import numpy as np
 
 from ..model.loads import Gravity, PointForce, Torque
 from .cone_solver import WARM_MAX_SIZE, ConeSolution, acceptance
+from .frozen import FieldTemplate
 from .kkt import ACTIVE_GAP, POLISH_TOL, PROXIMAL, UNLOADED
 from .lazy import LazySequence
 from .linear_answer import linear_equilibrium
@@ -142,11 +142,9 @@ class BoundLoads(NamedTuple):
     arguments: tuple
 
 
-# the residuals in solve_cases' row from column 3 on (kernel.ENERGY's docstring), and the others
+# the residuals in solve_cases' row from column 3 on (kernel.ENERGY's docstring)
 _RESIDUAL_COLUMNS = ("unblocked_load", "stationarity", "feasibility", "complementarity",
                      "statics", "max_violation_m", "max_violation_rel", "largest_rotation_rad")  # fmt: skip
-_RESIDUAL_DEFAULTS = {field.name: field.default for field in dataclasses.fields(Residuals)}
-_RESIDUAL_DEFAULTS["dual_infeasibility"] = 0.0
 
 
 class FastTerms:
@@ -212,11 +210,14 @@ class FastTerms:
         # solve_cases' arguments after the guess, for a pooled warm re-solve, bound once
         self._warm_tail = (self.accept, WARM_ROUNDS, self.centre_rounds, ITERATIONS, TOLERANCES,
                            *self.answer, False, True, *self.pool, True)  # fmt: skip
-        self._residual_constants = {
-            **_RESIDUAL_DEFAULTS,
-            "clearance_m": self.clearance,
-            "closure_conditioning": prepared.geometry.conditioning,
-        }
+        self._residuals = FieldTemplate(
+            Residuals,
+            {
+                "dual_infeasibility": 0.0,
+                "clearance_m": self.clearance,
+                "closure_conditioning": prepared.geometry.conditioning,
+            },
+        )
 
     def solve(self, cases, load_matrix, load_constant, y, multipliers, signs, chain=False,
               allow_flat=True, warm_rounds=ROUNDS, centre=True, pooled=False, pool=None):  # fmt: skip
@@ -293,11 +294,9 @@ class FastTerms:
         )
 
     def residuals(self, row: np.ndarray) -> Residuals:
-        """The measured residuals of one row of :meth:`solve` (filled without the dataclass's
-        ``__init__``, as :class:`.frozen.FieldTemplate`: a re-solve's few microseconds)."""
-        residuals = object.__new__(Residuals)
-        state = residuals.__dict__
-        state.update(self._residual_constants)
+        """The measured residuals of one row of :meth:`solve` (from a template of the constant
+        fields, :class:`.frozen.FieldTemplate`: a re-solve's few microseconds)."""
+        residuals, state = self._residuals.new()
         state.update(zip(_RESIDUAL_COLUMNS, row[3 : self.kernel.ENERGY].tolist()))
         return residuals
 
