@@ -396,7 +396,7 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
         appended = mechanism.resolve_loads((), options["gravity"])
     except ClearancePinError:
         return None
-    column = cases.load_column() if isinstance(cases, Cases) else [c for c, _ in cases]
+    column = cases.load_column()  # cases: the Cases of solve_many
     mapped = fast.load_cases(column[1:], appended)
     if mapped is None:
         return None  # cases of other loaded points (or refused loads): the NumPy batch

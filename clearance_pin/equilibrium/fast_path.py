@@ -113,6 +113,8 @@ def _load_in_background() -> None:
     """Start :func:`load_kernel` on a daemon thread, once per process (numba's cache files are
     written to a temporary name and renamed: a process that ends during the compilation leaves
     no partial cache). A failure (numba missing or unable to compile) leaves the NumPy path."""
+    if "loading" in _loaded:  # every re-solve while it loads: no lock taken
+        return
     with _start_lock:  # not _lock, which load_kernel holds while it compiles
         if "loading" in _loaded:
             return
