@@ -94,19 +94,14 @@ ARMS = ("arm_6r", "ur5", "panda")
 
 # -- models --------------------------------------------------------------------------------------
 def vendor_file(relative: str) -> Path | None:
-    """Path of a file of the installed example-robot-data (None when it is not installed):
-    through its Python API when the wheel ships one (versions 4-5), else through the
-    distribution's file list (version 6)."""
+    """Path of a file of the installed example-robot-data, found in the distribution's own file
+    list (every version's wheel lists its files; None when it is not installed or has no such
+    file). Not through ``getModelPath``: its return value changed meaning between releases (the
+    data folder's parent in 4-5, the ``robots`` folder itself in example-robot-data-loaders)."""
     try:
         distribution = importlib.metadata.distribution("example-robot-data")
     except importlib.metadata.PackageNotFoundError:
         return None
-    try:
-        from example_robot_data.robots_loader import getModelPath
-
-        return Path(getModelPath(relative)) / "robots" / relative
-    except ImportError:
-        pass
     for file in distribution.files or ():
         if str(file).endswith(relative):
             return Path(distribution.locate_file(file))

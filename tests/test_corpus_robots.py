@@ -17,8 +17,8 @@ held by its drive; one force at the tool. Checks, all independent of the solver'
 
 from __future__ import annotations
 
-import importlib.metadata
 import re
+import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -29,6 +29,9 @@ from corpus_statics import reaction_residual, statics_residual
 
 import clearance_pin
 from clearance_pin import Equilibrium, PointForce, Torque
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+import arms  # benchmarks/arms.py: where the vendor files are
 
 RADIAL, AXIAL, LENGTH = 1e-5, 5e-6, 0.03  # [m]
 TOOL_FORCE = np.array([20.0, -30.0, -50.0])  # [N], world axes
@@ -65,23 +68,14 @@ ROBOTS = {
 
 
 def vendor_file(relative: str) -> Path:
-    """Path of a file of the installed example-robot-data: through its Python API when the wheel
-    ships one (versions 4-5, ``getModelPath``), else through the distribution's file list
-    (version 6 moved the loaders to a separate example-robot-data-loaders package)."""
-    try:
-        distribution = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        pytest.skip("example-robot-data is not installed (pip install clearance_pin[test])")
-    try:
-        from example_robot_data.robots_loader import getModelPath
-
-        return Path(getModelPath(relative)) / "robots" / relative
-    except ImportError:
-        pass
-    for file in distribution.files or ():
-        if str(file).endswith(relative):
-            return Path(distribution.locate_file(file))
-    pytest.skip(f"example-robot-data has no {relative}")
+    """Path of a file of the installed example-robot-data (benchmarks/arms.py finds it; skips
+    when it is not installed)."""
+    path = arms.vendor_file(relative)
+    if path is None:
+        pytest.skip(
+            f"example-robot-data with {relative} is not installed (pip install clearance_pin[test])"
+        )
+    return path
 
 
 def model_text(robot: str) -> str:
