@@ -198,16 +198,6 @@ BAD_MJCF = {
         "<body name='box'>",
         ["did not read 1 of the 3 bodies", "first body under <worldbody>", "upper, box"],
     ),
-    "a fixed root body placed away from the origin": (
-        (
-            "<worldbody>",
-            '<worldbody><body name="base" pos="0 0 0.1">',
-            "</worldbody>",
-            "</body></worldbody>",
-        ),
-        "<body name='base'>",
-        ["fixed to the world", "ignores its placement", "#2782"],
-    ),
     "two joints in one body": (
         (
             '<joint name="elbow" type="hinge"',
@@ -249,27 +239,32 @@ def test_an_mjcf_joint_the_clearance_file_misnames(tmp_path):
     )
 
 
-def test_an_mjcf_file_pinocchio_cannot_read(tmp_path):
+def test_an_mjcf_include_that_cannot_be_read(tmp_path):
+    """An <include> is spliced in by clearance_pin's own reading: a missing file is named."""
     path = write(tmp_path, "bad.xml", '<mujoco><include file="missing.xml"/><worldbody/></mujoco>')
     with pytest.raises(cp.ModelError) as caught:
         cp.load(path)
-    assert caught.value.source == str(path) and caught.value.element == "<mujoco>"
-    assert "Pinocchio cannot build the MJCF" in caught.value.problem
+    assert caught.value.source == str(path)
+    assert caught.value.element == "<include file='missing.xml'>"
+    assert "cannot be read" in caught.value.problem
 
 
 def test_a_body_pinocchio_misplaces_is_refused():
-    """The guard against a misread placement: the body positions recomputed from the file's pos
-    against a model whose elbow was moved (standing in for a reader error)."""
+    """The guard against a misread placement: the placements read from the file against a model
+    whose elbow was moved by 10 mm (standing in for a reader error)."""
     import pinocchio as pin
 
     from clearance_pin.model import mjcf
+    from clearance_pin.model.mjcf_placements import read_placements
 
-    root = ET.fromstring(ARM_MJCF)
+    placements = read_placements(ET.fromstring(ARM_MJCF), "arm.xml", None)
     model = cp.loads(ARM_MJCF).model
-    mjcf._check_positions(root.findall("worldbody"), model, "arm.xml")  # as read: accepted
+    mjcf.check_placements(model, placements, "arm.xml")  # as read: accepted
     moved = pin.Model(model)
     moved.jointPlacements[2] = pin.SE3(np.eye(3), np.array([0.31, 0.0, 0.0]))
     with pytest.raises(cp.ModelError) as caught:
-        mjcf._check_positions(root.findall("worldbody"), moved, "arm.xml")
+        mjcf.check_placements(moved, placements, "arm.xml")
     assert caught.value.element == "<body name='fore'>"
-    assert "[0.31, 0.0, 0.1]" in caught.value.problem and "[0.3, 0.0, 0.1]" in caught.value.problem
+    problem = caught.value.problem
+    assert "[0.31, 0.0, 0.1] m" in problem and "[0.3, 0.0, 0.1] m" in problem
+    assert "pos='0.3 0 0'" in problem

@@ -19,6 +19,7 @@ Not read, and refused with a :class:`~clearance_pin.errors.ModelError` rather th
 
 from __future__ import annotations
 
+import os
 import tempfile
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -30,6 +31,9 @@ import pinocchio as pin
 from ..errors import ModelError
 from .block import BLOCK, ClearanceBlock, empty_block, joint_table, read_block
 from .description import MechanismDescription, combined_source, describe
+from .frames import frame_id
+from .mjcf_orientation import matrix_quat
+from .mjcf_placements import FilePlacements, read_placements
 
 SUPPORTED = (
     "use hinge, slide or free joints, one joint per body (a ball joint with play: a free joint "
@@ -46,20 +50,32 @@ def read_mjcf(
 ) -> MechanismDescription:
     """The description of an MJCF model with the clearances ``beside`` it.
 
+    Pinocchio reads the file rewritten as :func:`~.mjcf_placements.read_placements` says
+    (orientations as unit quats, frames composed, includes spliced in); a root body fixed to the
+    world is then placed in memory, and every named body, hinge or slide joint and site is
+    checked against the file's own reading (:func:`check_placements`).
+
     Args:
         text: the MJCF text (decoded).
         root: its ``<mujoco>`` element.
         source: the file, named in messages.
-        path: the file, when it is one: Pinocchio reads it there, so its ``<include>`` files and
-            meshes are found relative to it (the text alone is read from a temporary file).
+        path: the file, when it is one: its ``<include>`` files and meshes are found relative to
+            it.
         beside: the clearance block (None: every joint ideal).
     """
+    del text  # read from ``root``, rewritten
     _refuse_unread(root, source)
-    model = _build(text, source, path)
-    _check_tree(root, model, source)
+    placements = read_placements(root, source, path.parent if path is not None else None)
+    rewritten = _pinocchio_text(placements.tree, path)
+    model = _build(rewritten, source)
+    _check_tree(placements.tree, model, source)
+    if placements.root is not None:
+        _compose_root(model, placements.tree, pin.SE3(*placements.root))
+    _add_missing_sites(model, placements)
+    check_placements(model, placements, source)
     block = beside or ClearanceBlock(empty_block(), source)
     contents = read_block(block.source, block.element, model, joint_table(model, "MJCF", SUPPORTED))
-    geometry = MjcfGeometry(text, source, str(path) if path is not None else None)
+    geometry = MjcfGeometry(rewritten, source, None)
     return describe(
         model,
         contents,
@@ -90,21 +106,30 @@ def _refuse_unread(root: ET.Element, source: str) -> None:
         )
 
 
-ORIENTATIONS = ("quat", "euler", "axisangle", "xyaxes", "zaxis")
-ROUND_OFF = 1e-12  # of the model's size: the body positions compared
+ROUND_OFF = 1e-9  # of the model's size (at least 1 m) [m], and of a rotation [rad]
 
 
-def _check_tree(root: ET.Element, model: pin.Model, source: str) -> None:
-    """Refuse what Pinocchio's MJCF reader is known to drop or misplace, silently:
+def _pinocchio_text(tree: ET.Element, path: Path | None) -> str:
+    """The rewritten tree as text, its meshes found where the original file's are (MuJoCo: an
+    absolute meshdir, else the file's directory joined with meshdir or assetdir)."""
+    if path is not None:
+        compilers = tree.findall("compiler")
+        if not compilers:
+            compilers = [ET.Element("compiler")]
+            tree.insert(0, compilers[0])
+        meshdir = next((c.get("meshdir") for c in compilers if c.get("meshdir")), None)
+        assetdir = next((c.get("assetdir") for c in compilers if c.get("assetdir")), None)
+        directory = (path.parent / (meshdir or assetdir or "")).resolve()
+        for compiler in compilers:
+            compiler.attrib.pop("meshdir", None)
+        compilers[0].set("meshdir", str(directory) + os.sep)
+    return ET.tostring(tree, encoding="unicode")
 
-    - bodies it did not read (Pinocchio 3.x-4.1 reads the first body under ``<worldbody>`` with
-      its subtree only);
-    - the placement of a body fixed to the world (a root body without a joint: its ``pos`` and
-      orientation are ignored, Pinocchio issue #2782);
-    - and, where the file places its bodies by ``pos`` alone (no orientation, no include), every
-      body's position recomputed here from the file against Pinocchio's.
-    """
-    worldbodies = root.findall("worldbody")
+
+def _check_tree(tree: ET.Element, model: pin.Model, source: str) -> None:
+    """Refuse bodies Pinocchio's MJCF reader did not read (Pinocchio 3.x-4.1 reads the first
+    body under ``<worldbody>`` with its subtree only)."""
+    worldbodies = tree.findall("worldbody")
     bodies = [b for w in worldbodies for b in w.iter("body")]
     frames = {f.name for f in model.frames if f.type == pin.FrameType.BODY}
     missing = [b.get("name") or "(unnamed)" for b in bodies if b.get("name") not in frames]
@@ -116,69 +141,132 @@ def _check_tree(root: ET.Element, model: pin.Model, source: str) -> None:
             f"Pinocchio's MJCF reader did not read {len(bodies) - len(frames)} of the "
             f"{len(bodies)} bodies ({', '.join(missing)}): it reads the first body under "
             f"<worldbody> and its subtree only (root bodies here: {', '.join(roots)}). Put "
-            "every body in one tree, under a single root body at the world origin",
+            "every body in one tree, under a single root body",
         )
-    for world in worldbodies:
-        for body in world.findall("body"):
-            jointed = body.find("joint") is not None or body.find("freejoint") is not None
-            placed = any(body.get(a) is not None for a in ORIENTATIONS) or _pos(body).any()
-            if not jointed and placed:
-                raise ModelError(
-                    source,
-                    f"<body name='{body.get('name')}'>",
-                    "a body fixed to the world with a pos or an orientation: Pinocchio's MJCF "
-                    "reader ignores its placement (Pinocchio issue #2782), which would move "
-                    "the whole mechanism. Place it at the world origin and move its children "
-                    "instead",
-                )
-    if root.find(".//include") is None and not any(
-        b.get(a) is not None for b in bodies for a in ORIENTATIONS
-    ):
-        _check_positions(worldbodies, model, source)
 
 
-def _pos(element: ET.Element) -> np.ndarray:
+def _compose_root(model: pin.Model, tree: ET.Element, placement: pin.SE3) -> None:
+    """Place the root body fixed to the world (built at the origin) and all it carries:
+    ``M_frame <- M_root M_frame`` for the frames of the world joint hanging from the root body,
+    ``M_joint <- M_root M_joint`` for the joints whose parent is the world."""
+    root = next(b for w in tree.findall("worldbody") for b in w.findall("body"))
+    root_id = model.getFrameId(root.get("name", ""), pin.FrameType.BODY)
+    for index in range(1, len(model.frames)):
+        frame = model.frames[index]
+        ancestor = index
+        while ancestor not in (0, root_id):
+            ancestor = model.frames[ancestor].parentFrame
+        if frame.parentJoint == 0 and ancestor == root_id:
+            frame.placement = placement * frame.placement
+            model.frames[index] = frame
+    for joint in range(1, model.njoints):
+        if model.parents[joint] == 0:
+            model.jointPlacements[joint] = placement * model.jointPlacements[joint]
+
+
+def _add_missing_sites(model: pin.Model, placements: FilePlacements) -> None:
+    """The named sites Pinocchio's reader left out (those of a body fixed to the world, of the
+    world), as operational frames on their body's frame."""
+    for name, (_, body) in placements.sites.items():
+        if frame_id(model, name) is not None:
+            continue
+        rotation, translation = placements.site_local[name]
+        parent = 0 if body is None else model.getFrameId(body, pin.FrameType.BODY)
+        local = pin.SE3(rotation, translation)
+        if parent != 0:
+            local = model.frames[parent].placement * local
+        joint = model.frames[parent].parentJoint
+        model.addFrame(pin.Frame(name, joint, parent, local, pin.FrameType.OP_FRAME))
+
+
+def _reference(model: pin.Model) -> np.ndarray:
+    """MuJoCo's qpos0 as Pinocchio read it (every joint at its ref): where the file draws the
+    bodies."""
     try:
-        return np.array([float(v) for v in element.get("pos", "0 0 0").split()], dtype=float)
-    except ValueError:
-        return np.zeros(3)
+        return np.array(model.referenceConfigurations["qpos0"], dtype=float)
+    except (KeyError, IndexError, RuntimeError):
+        return np.asarray(pin.neutral(model), dtype=float)
 
 
-def _check_positions(worldbodies: list[ET.Element], model: pin.Model, source: str) -> None:
-    """Every body's world position: the sum of the ``pos`` of its chain (bodies without
-    orientation), against Pinocchio's at the neutral configuration."""
+def _shown(rotation: np.ndarray, translation: np.ndarray) -> str:
+    return (
+        f"{np.round(translation, 9).tolist()} m, quat {np.round(matrix_quat(rotation), 9).tolist()}"
+    )
+
+
+def check_placements(model: pin.Model, placements: FilePlacements, source: str) -> None:
+    """Refuse a body, joint or site that ``model`` places elsewhere than the file does.
+
+    At MuJoCo's ``qpos0``: a body's or site's origin within ``ROUND_OFF`` of the model's size
+    (at least 1 m) and its axes within ``ROUND_OFF``; a hinge's world axis ``w`` and the
+    velocity ``v`` of the world origin on it (``v = a x w`` for a point ``a`` of the axis), a
+    slide's axis ``v``, from the joint's column of Pinocchio's world Jacobian.
+    """
     data = model.createData()
-    pin.framesForwardKinematics(model, data, pin.neutral(model))
-    expected: dict[str, np.ndarray] = {}
+    q = _reference(model)
+    pin.forwardKinematics(model, data, q)
+    pin.updateFramePlacements(model, data)
+    pin.computeJointJacobians(model, data, q)
+    points = [p.translation for p in placements.bodies.values()]
+    size = max([1.0, *(float(np.linalg.norm(p)) for p in points)])
 
-    def walk(body: ET.Element, origin: np.ndarray) -> None:
-        position = origin + _pos(body)
-        name = body.get("name")
-        if name:
-            expected[name] = position
-        for child in body.findall("body"):
-            walk(child, position)
+    def refuse(element: str, placed: str, given: str, expected: str) -> None:
+        raise ModelError(
+            source,
+            element,
+            f"Pinocchio's MJCF reader places it at {placed}, the file ({given}) at {expected}, "
+            "as MuJoCo reads it: refused rather than solved on a misplaced model",
+        )
 
-    for world in worldbodies:
-        for body in world.findall("body"):
-            walk(body, np.zeros(3))
-    size = max((float(np.linalg.norm(p)) for p in expected.values()), default=0.0) or 1.0
-    for name, position in expected.items():
-        placed = data.oMf[model.getFrameId(name, pin.FrameType.BODY)].translation
-        if np.linalg.norm(placed - position) > ROUND_OFF * size:
-            raise ModelError(
-                source,
-                f"<body name='{name}'>",
-                f"Pinocchio's MJCF reader placed the body at {np.round(placed, 12).tolist()} m, "
-                f"the file at {np.round(position, 12).tolist()} m (the sum of the pos of its "
-                "chain): a placement this reader does not read as MuJoCo does",
+    framed = [
+        (n, p, f"<body name='{n}'>", pin.FrameType.BODY) for n, p in placements.bodies.items()
+    ]
+    framed += [(n, p, f"<site name='{n}'>", None) for n, (p, _) in placements.sites.items()]
+    for name, expected, element, kind in framed:
+        index = model.getFrameId(name, kind) if kind is not None else frame_id(model, name)
+        if index is None or index >= len(model.frames):
+            continue  # a body Pinocchio did not read is refused by _check_tree
+        placed = data.oMf[index]
+        if (
+            np.linalg.norm(placed.translation - expected.translation) > ROUND_OFF * size
+            or np.abs(placed.rotation - expected.rotation).max() > ROUND_OFF
+        ):
+            refuse(
+                element,
+                _shown(placed.rotation, placed.translation),
+                expected.given,
+                _shown(expected.rotation, expected.translation),
             )
+    for name, joint in placements.joints.items():
+        if joint.kind not in ("hinge", "slide") or not model.existJointName(name):
+            continue
+        index = model.getJointId(name)
+        if model.joints[index].nv != 1:
+            continue  # several joints in one body: refused by the joint table
+        jacobian = pin.getJointJacobian(model, data, index, pin.ReferenceFrame.WORLD)
+        column = np.reshape(jacobian, (6, model.nv))[:, model.joints[index].idx_v]  # nv = 1: (6,)
+        velocity, turn = column[:3], column[3:]
+        if joint.kind == "hinge":
+            wrong = (
+                np.abs(turn - joint.axis).max() > ROUND_OFF
+                or np.linalg.norm(velocity - np.cross(joint.anchor, joint.axis)) > ROUND_OFF * size
+            )
+            through = np.round(data.oMi[index].translation, 9).tolist()
+            placed = f"axis {np.round(turn, 9).tolist()} through {through} m"
+        else:
+            wrong = (
+                np.abs(velocity - joint.axis).max() > ROUND_OFF or np.abs(turn).max() > ROUND_OFF
+            )
+            placed = f"axis {np.round(velocity, 9).tolist()}"
+        if wrong:
+            expected_text = f"axis {np.round(joint.axis, 9).tolist()}"
+            if joint.kind == "hinge":
+                expected_text += f" through {np.round(joint.anchor, 9).tolist()} m"
+            refuse(f"<joint name='{name}'>", placed, joint.given, expected_text)
 
 
-def _build(text: str, source: str, path: Path | None) -> pin.Model:
+def _build(text: str, source: str) -> pin.Model:
     try:
-        if path is not None:
-            return pin.buildModelFromMJCF(str(path))
         with tempfile.TemporaryDirectory() as directory:
             file = Path(directory) / "model.xml"
             file.write_text(text, encoding="utf-8")
@@ -214,4 +302,4 @@ class MjcfGeometry:
             raise ModelError(self.source, "<geom>", f"cannot be loaded: {exc}") from None
 
 
-__all__ = ["MjcfGeometry", "read_mjcf"]
+__all__ = ["MjcfGeometry", "check_placements", "read_mjcf"]
