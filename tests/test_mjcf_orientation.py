@@ -454,3 +454,39 @@ def test_random_mjcf_files_are_placed_as_mujoco_or_refused():
         counts["agreeing" if error < AGREE else "wrong"] += 1
     assert counts["wrong"] == 0, (counts, worst)
     assert counts["agreeing"] >= 250, counts  # the generator makes files MuJoCo reads
+
+
+CUBE_OBJ = "".join(f"v {x} {y} {z}\n" for x in (0, 0.1) for y in (0, 0.1) for z in (0, 0.1)) + (
+    "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n"
+)
+
+
+def test_meshes_are_found_beside_the_rewritten_file(tmp_path):
+    """Pinocchio reads the rewritten file from elsewhere: a mesh under the file's meshdir is
+    still found, and placed (a turned fixed root, an euler geom) where MuJoCo places it."""
+    (tmp_path / "assets").mkdir()
+    (tmp_path / "assets" / "cube.obj").write_text(CUBE_OBJ)
+    text = """<mujoco><compiler meshdir="assets" eulerseq="ZYX"/>
+      <asset><mesh name="cube" file="cube.obj"/></asset>
+      <worldbody><body name="base" euler="0 0 90" pos="0 0 0.2">
+        <body name="link"><joint name="hinge" axis="0 0 1"/>
+          <geom type="mesh" mesh="cube" pos="0.1 0 0" euler="30 0 10"/></body>
+      </body></worldbody></mujoco>"""
+    path = tmp_path / "robot.xml"
+    path.write_text(text)
+    mechanism = cp.load(path)
+    geometry = mechanism.collision_model
+    assert geometry.ngeoms == 1
+    model = mechanism.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, np.array(model.referenceConfigurations["qpos0"]))
+    geometry_data = geometry.createData()
+    pin.updateGeometryPlacements(model, data, geometry, geometry_data)
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    mjd = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, mjd)
+    # MuJoCo moves a mesh geom's frame to the mesh's centre and principal axes: compare a
+    # vertex of the cube, (0.1, 0.1, 0.1) in the mesh's file frame, in the world
+    vertex = geometry_data.oMg[0].act(np.array([0.1, 0.1, 0.1]))
+    vertices = mjd.geom_xpos[0] + mj.mesh_vert.reshape(-1, 3) @ mjd.geom_xmat[0].reshape(3, 3).T
+    assert np.min(np.linalg.norm(vertices - vertex, axis=1)) < 1e-6  # float32 mesh vertices

@@ -1,7 +1,12 @@
 """Read a mechanism from an MJCF file (root ``<mujoco>``) beside a clearance file.
 
 The kinematic tree is built by Pinocchio's MJCF reader (``pin.buildModelFromMJCF``, Pinocchio
-3.x and later); the clearances, loop joints and loads come from a clearance file, as beside a URDF
+3.x and later) from the file as clearance_pin rewrites it (:mod:`~.mjcf_placements`: every
+orientation a unit quat, frames composed, includes spliced in); a root body fixed to the world
+is placed in memory, and every named body, hinge or slide joint and site is checked against
+clearance_pin's own reading of the file (MuJoCo's rules, :mod:`~.mjcf_orientation`).
+
+The clearances, loop joints and loads come from a clearance file, as beside a URDF
 (:mod:`~clearance_pin.model.clearance_file`). In a clearance file an MJCF ``hinge`` joint is a
 ``revolute`` joint, a ``slide`` joint ``prismatic`` and a ``free`` joint ``floating``; loads name
 MJCF bodies; loop joints name any frames of the model (bodies or sites).
@@ -14,7 +19,11 @@ Not read, and refused with a :class:`~clearance_pin.errors.ModelError` rather th
 - a ``<clearance_pin>`` element inside the MJCF file (MuJoCo refuses unknown elements): write it
   as a clearance file;
 - a body with several joints (Pinocchio makes them one composite joint) and ``ball`` joints (a
-  ball joint with play is a ``free`` joint with a ``spherical`` clearance).
+  ball joint with play is a ``free`` joint with a ``spherical`` clearance);
+- a second body under ``<worldbody>`` (Pinocchio reads the first one and its subtree only);
+- procedural elements (``<replicate>``, ``<attach>``, ``<composite>``, ``<flexcomp>``), an
+  orientation in a ``<default>`` class, and placements Pinocchio's reader does not read as
+  MuJoCo does (the check above).
 """
 
 from __future__ import annotations
@@ -56,14 +65,13 @@ def read_mjcf(
     checked against the file's own reading (:func:`check_placements`).
 
     Args:
-        text: the MJCF text (decoded).
+        text: the MJCF text (decoded); what is read is its tree ``root``.
         root: its ``<mujoco>`` element.
         source: the file, named in messages.
         path: the file, when it is one: its ``<include>`` files and meshes are found relative to
             it.
         beside: the clearance block (None: every joint ideal).
     """
-    del text  # read from ``root``, rewritten
     _refuse_unread(root, source)
     placements = read_placements(root, source, path.parent if path is not None else None)
     rewritten = _pinocchio_text(placements.tree, path)
@@ -75,7 +83,7 @@ def read_mjcf(
     check_placements(model, placements, source)
     block = beside or ClearanceBlock(empty_block(), source)
     contents = read_block(block.source, block.element, model, joint_table(model, "MJCF", SUPPORTED))
-    geometry = MjcfGeometry(rewritten, source, None)
+    geometry = MjcfGeometry(rewritten, source)
     return describe(
         model,
         contents,
@@ -280,20 +288,17 @@ class MjcfGeometry:
     """The MJCF model's collision geometry, built when a check first needs it.
 
     Attributes:
-        text: the MJCF text.
+        text: the MJCF text as Pinocchio reads it (rewritten by
+            :func:`~.mjcf_placements.read_placements`, meshdir absolute when there is a file).
         source: the file, for messages.
-        path: the file Pinocchio reads (None: the text is written to a temporary file).
     """
 
     text: str
     source: str
-    path: str | None
 
     def __call__(self, model: pin.Model) -> pin.GeometryModel:
         """The ``pin.GeometryModel`` of the MJCF collision geometry of ``model``."""
         try:
-            if self.path is not None:
-                return pin.buildGeomFromMJCF(model, self.path, pin.GeometryType.COLLISION)
             with tempfile.TemporaryDirectory() as directory:
                 file = Path(directory) / "model.xml"
                 file.write_text(self.text, encoding="utf-8")
