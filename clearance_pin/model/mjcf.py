@@ -40,7 +40,6 @@ import pinocchio as pin
 from ..errors import ModelError
 from .block import BLOCK, ClearanceBlock, empty_block, joint_table, read_block
 from .description import MechanismDescription, combined_source, describe
-from .frames import frame_id
 from .mjcf_orientation import matrix_quat
 from .mjcf_placements import FilePlacements, read_placements
 
@@ -141,6 +140,13 @@ def _check_tree(tree: ET.Element, model: pin.Model, source: str) -> None:
     bodies = [b for w in worldbodies for b in w.iter("body")]
     frames = {f.name for f in model.frames if f.type == pin.FrameType.BODY}
     missing = [b.get("name") or "(unnamed)" for b in bodies if b.get("name") not in frames]
+    if None in (b.get("name") for b in bodies):
+        raise ModelError(
+            source,
+            "<body>",
+            "a body without a name: Pinocchio's MJCF reader drops it with its subtree. Name "
+            "every body",
+        )
     if missing or len(bodies) != len(frames):
         roots = [b.get("name") or "(unnamed)" for w in worldbodies for b in w.findall("body")]
         raise ModelError(
@@ -176,7 +182,7 @@ def _add_missing_sites(model: pin.Model, placements: FilePlacements) -> None:
     """The named sites Pinocchio's reader left out (those of a body fixed to the world, of the
     world), as operational frames on their body's frame."""
     for name, (_, body) in placements.sites.items():
-        if frame_id(model, name) is not None:
+        if _site_frame(model, name) is not None:
             continue
         rotation, translation = placements.site_local[name]
         parent = 0 if body is None else model.getFrameId(body, pin.FrameType.BODY)
@@ -185,6 +191,13 @@ def _add_missing_sites(model: pin.Model, placements: FilePlacements) -> None:
             local = model.frames[parent].placement * local
         joint = model.frames[parent].parentJoint
         model.addFrame(pin.Frame(name, joint, parent, local, pin.FrameType.OP_FRAME))
+
+
+def _site_frame(model: pin.Model, name: str) -> int | None:
+    """The operational frame Pinocchio made of the site ``name`` (a body may share its name)."""
+    found = [i for i, f in enumerate(model.frames) if f.name == name]
+    sites = [i for i in found if model.frames[i].type == pin.FrameType.OP_FRAME]
+    return sites[0] if sites else None
 
 
 def _reference(model: pin.Model) -> np.ndarray:
@@ -205,10 +218,11 @@ def _shown(rotation: np.ndarray, translation: np.ndarray) -> str:
 def check_placements(model: pin.Model, placements: FilePlacements, source: str) -> None:
     """Refuse a body, joint or site that ``model`` places elsewhere than the file does.
 
-    At MuJoCo's ``qpos0``: a body's or site's origin within ``ROUND_OFF`` of the model's size
-    (at least 1 m) and its axes within ``ROUND_OFF``; a hinge's world axis ``w`` and the
-    velocity ``v`` of the world origin on it (``v = a x w`` for a point ``a`` of the axis), a
-    slide's axis ``v``, from the joint's column of Pinocchio's world Jacobian.
+    At MuJoCo's ``qpos0`` (each hinge or slide joint at its ``ref``, itself checked): a body's
+    or site's origin within ``ROUND_OFF`` of the model's size (at least 1 m) and its axes within
+    ``ROUND_OFF``; a hinge's world axis ``w`` and the velocity ``v`` of the world origin on it
+    (``v = a x w`` for a point ``a`` of the axis), a slide's axis ``v``, from the joint's column
+    of Pinocchio's world Jacobian.
     """
     data = model.createData()
     q = _reference(model)
@@ -226,12 +240,25 @@ def check_placements(model: pin.Model, placements: FilePlacements, source: str) 
             "as MuJoCo reads it: refused rather than solved on a misplaced model",
         )
 
+    for name, joint in placements.joints.items():
+        if joint.kind in ("hinge", "slide") and model.existJointName(name):
+            index = model.getJointId(name)
+            value = float(q[model.joints[index].idx_q])
+            if model.joints[index].nq == 1 and abs(value - joint.ref) > ROUND_OFF:
+                unit = "rad" if joint.kind == "hinge" else "m"
+                raise ModelError(
+                    source,
+                    f"<joint name='{name}'>",
+                    f"Pinocchio's MJCF reader reads its ref (the value at which the file draws "
+                    f"the bodies) as {value:.12g} {unit}, the file gives {joint.ref:.12g} {unit}: "
+                    "refused, as the joint values of the clearance file would not mean MuJoCo's",
+                )
     framed = [
         (n, p, f"<body name='{n}'>", pin.FrameType.BODY) for n, p in placements.bodies.items()
     ]
     framed += [(n, p, f"<site name='{n}'>", None) for n, (p, _) in placements.sites.items()]
     for name, expected, element, kind in framed:
-        index = model.getFrameId(name, kind) if kind is not None else frame_id(model, name)
+        index = model.getFrameId(name, kind) if kind is not None else _site_frame(model, name)
         if index is None or index >= len(model.frames):
             continue  # a body Pinocchio did not read is refused by _check_tree
         placed = data.oMf[index]

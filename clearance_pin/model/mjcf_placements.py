@@ -70,6 +70,8 @@ class JointPlacement:
         axis: (3,) its unit axis, world axes.
         body: the body it moves.
         given: how the file places it, for messages.
+        ref: its value at qpos0 [rad or m] (MuJoCo's ``ref``, in the compiler's angle unit for
+            a hinge).
     """
 
     kind: str
@@ -77,6 +79,7 @@ class JointPlacement:
     axis: np.ndarray
     body: str
     given: str
+    ref: float = 0.0
 
 
 @dataclass
@@ -137,9 +140,11 @@ def read_placements(root: ET.Element, source: str, directory: Path | None) -> Fi
         _flatten(world, source)
     placements = FilePlacements(tree)
     for world in tree.findall("worldbody"):
-        _place_children(world, None, np.eye(3), np.zeros(3), placements, source)
+        _place_children(
+            world, None, np.eye(3), np.zeros(3), placements, source, compiler.angle_unit
+        )
     roots = [b for w in tree.findall("worldbody") for b in w.findall("body")]
-    if roots and not _jointed(roots[0]):
+    if roots and _composed_in_memory(roots[0]):
         rotation, translation = _local(roots[0], source)
         if translation.any() or not np.array_equal(rotation, np.eye(3)):
             placements.root = (rotation, translation)
@@ -252,6 +257,8 @@ def _resolve(
                     if value is not None:
                         child.set(attribute, value)
         given = ""
+        if child.tag == "site" and child.get("fromto") is not None:
+            _site_fromto(child, source)
         if child.tag in (*ORIENTED, "joint"):
             given = _given(child, compiler)
             if child.tag != "joint":
@@ -263,6 +270,19 @@ def _resolve(
         # the frames an element sits in are named in its messages
         where = f", inside {label(child)} {given}{frames}" if child.tag == "frame" else ""
         _resolve(child, inner, defaults, compiler, source, where)
+
+
+def _site_fromto(site: ET.Element, source: str) -> None:
+    """A site given by ``fromto`` (it overrides pos and orientation): at the middle of the
+    segment, its z axis from the second point to the first (MuJoCo's user_objects.cc: the
+    zaxis rule applied to from - to), written as pos and zaxis."""
+    ends = numbers(source, label(site), site, "fromto", 6).reshape(2, 3)
+    if np.linalg.norm(ends[1] - ends[0]) < 1e-14:
+        raise ModelError(source, label(site), "fromto has zero length: it has no direction")
+    for attribute in ("fromto", *ORIENTATIONS):
+        site.attrib.pop(attribute, None)
+    site.set("pos", _text(ends.mean(axis=0)))
+    site.set("zaxis", _text(ends[0] - ends[1]))
 
 
 def _given(element: ET.Element, compiler: Compiler) -> str:
@@ -346,8 +366,11 @@ def _flatten(element: ET.Element, source: str) -> None:
         index += len(moved)
 
 
-def _jointed(body: ET.Element) -> bool:
-    return body.find("joint") is not None or body.find("freejoint") is not None
+def _composed_in_memory(body: ET.Element) -> bool:
+    """Whether Pinocchio's reader misplaces this root body: fixed to the world (its placement
+    ignored, issue #2782) or free (its placement counted twice at qpos0)."""
+    joints = body.findall("joint")
+    return not joints or body.find("freejoint") is not None or joints[0].get("type") == "free"
 
 
 def _place_children(
@@ -357,6 +380,7 @@ def _place_children(
     translation: np.ndarray,
     placements: FilePlacements,
     source: str,
+    angle_unit: float,
 ) -> None:
     for child in element:
         if child.tag == "site":
@@ -379,6 +403,7 @@ def _place_children(
             if kind in ("hinge", "slide") and norm < 1e-14:
                 raise ModelError(source, label(child), "axis is zero: it has no direction")
             name = child.get("name")
+            ref = float(_vector(child, "ref", (0.0,), source)[0])
             if name and body is not None:
                 placements.joints[name] = JointPlacement(
                     kind,
@@ -386,6 +411,7 @@ def _place_children(
                     rotation @ axis / (norm or 1.0),
                     body,
                     child.get("_given", ""),
+                    ref * angle_unit if kind == "hinge" else ref,
                 )
         elif child.tag == "body":
             local_rotation, local_translation = _local(child, source)
@@ -396,7 +422,9 @@ def _place_children(
                 placements.bodies[name] = Placement(
                     world_rotation, world_translation, child.get("_given", "")
                 )
-            _place_children(child, name, world_rotation, world_translation, placements, source)
+            _place_children(
+                child, name, world_rotation, world_translation, placements, source, angle_unit
+            )
 
 
 __all__ = ["FilePlacements", "JointPlacement", "Placement", "label", "read_placements"]
