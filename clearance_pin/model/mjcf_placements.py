@@ -257,10 +257,11 @@ def _resolve(
                     if value is not None:
                         child.set(attribute, value)
         given = ""
-        if child.tag == "site" and child.get("fromto") is not None:
-            _site_fromto(child, source)
         if child.tag in (*ORIENTED, "joint"):
             given = _given(child, compiler)
+            if child.tag == "site" and child.get("fromto") is not None:
+                given = f"fromto='{child.get('fromto')}'"
+                _site_fromto(child, source)
             if child.tag != "joint":
                 quat, oriented = orientation(source, label(child), child, compiler)
                 if oriented is not None:
