@@ -249,6 +249,19 @@ def test_an_mjcf_include_that_cannot_be_read(tmp_path):
     assert "cannot be read" in caught.value.problem
 
 
+def test_an_mjcf_file_pinocchio_cannot_read(tmp_path):
+    path = write(
+        tmp_path,
+        "bad.xml",
+        '<mujoco><worldbody><body name="a"><joint name="j" type="weird"/><geom size="0.1"/>'
+        "</body></worldbody></mujoco>",
+    )
+    with pytest.raises(cp.ModelError) as caught:
+        cp.load(path)
+    assert caught.value.source == str(path) and caught.value.element == "<mujoco>"
+    assert "Pinocchio cannot build the MJCF" in caught.value.problem
+
+
 def test_a_body_pinocchio_misplaces_is_refused():
     """The guard against a misread placement: the placements read from the file against a model
     whose elbow was moved by 10 mm (standing in for a reader error)."""

@@ -60,7 +60,7 @@ def read_mjcf(
 
     Pinocchio reads the file rewritten as :func:`~.mjcf_placements.read_placements` says
     (orientations as unit quats, frames composed, includes spliced in); a root body fixed to the
-    world is then placed in memory, and every named body, hinge or slide joint and site is
+    world or free is then placed in memory, and every named body, hinge or slide joint and site is
     checked against the file's own reading (:func:`check_placements`).
 
     Args:

@@ -10,8 +10,9 @@ The rewrite (:func:`read_placements`), on a copy of the file's tree:
 4. every ``<frame>`` is composed into its children and removed (MuJoCo 3 frames): a child's
    ``pos`` becomes ``p_frame + R_frame p``, its ``quat`` ``q_frame q``, a joint's ``axis``
    ``R_frame axis``, a geom's ``fromto`` both points mapped;
-5. a root body without a joint loses its ``pos`` and ``quat``, kept as :attr:`FilePlacements.
-   root` for the caller to compose in memory (Pinocchio 3.x-4.1 ignores them, issue #2782).
+5. a root body without a joint, or with a free joint, loses its ``pos`` and ``quat``, kept as
+   :attr:`FilePlacements.root` for the caller to compose in memory (Pinocchio 4.1 ignores the
+   first's, issue #2782, and counts the second's twice at qpos0).
 
 The world placements at MuJoCo's ``qpos0`` (every joint at its ``ref``, where the file draws the
 bodies) follow from the rewritten tree: a body's is its parent's composed with its ``pos`` and
@@ -92,8 +93,8 @@ class FilePlacements:
         joints: named joints.
         sites: named sites: their world placement, and the body they belong to (None: the world).
         site_local: named sites: (rotation, translation) in their body's frame.
-        root: the placement of a root body fixed to the world, taken out of the rewritten tree
-            (rotation, translation), None when there is none to compose.
+        root: the placement (rotation, translation [m]) of a root body fixed to the world or
+            free, taken out of the rewritten tree; None when there is none to compose.
     """
 
     tree: ET.Element
