@@ -352,6 +352,40 @@ def test_an_unnamed_body_is_refused_for_what_it_is():
     assert "a body without a name" in caught.value.problem
 
 
+def test_included_files_are_read_with_their_defaults_and_orientations(tmp_path):
+    """<include> files (a default class, then a body inside <worldbody>) spliced in where they
+    stand, as MuJoCo does: MuJoCo's placements (before: placements under an include were not
+    checked, and an euler XYZ arm was accepted wrong)."""
+    (tmp_path / "classes.xml").write_text(
+        '<mujoco><default><default class="pitch"><joint axis="0 1 0" pos="0.02 0 0"/>'
+        "</default></default></mujoco>"
+    )
+    (tmp_path / "arm.xml").write_text(
+        '<mujoco><body name="upper" pos="0.3 0 0" euler="30 -20 50">'
+        '<joint name="j2" class="pitch"/><geom size="0.02"/><site name="tip" pos="0.2 0 0"/>'
+        "</body></mujoco>"
+    )
+    text = """<mujoco><compiler eulerseq="XYZ"/><include file="classes.xml"/>
+      <worldbody><body name="base" euler="10 20 30"><joint name="j1" axis="0 0 1"/>
+        <geom size="0.02"/><include file="arm.xml"/></body></worldbody></mujoco>"""
+    path = tmp_path / "robot.xml"
+    path.write_text(text)
+    model = cp.load(path).model
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    assert mj.nbody == 3
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, np.array(model.referenceConfigurations["qpos0"]))
+    mjd = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, mjd)
+    for body in ("base", "upper"):
+        placed = data.oMf[model.getFrameId(body, pin.FrameType.BODY)]
+        np.testing.assert_allclose(placed.translation, mjd.body(body).xpos, atol=AGREE)
+        np.testing.assert_allclose(placed.rotation, mjd.body(body).xmat.reshape(3, 3), atol=AGREE)
+    tip = data.oMf[model.getFrameId("tip", pin.FrameType.OP_FRAME)]
+    np.testing.assert_allclose(tip.translation, mjd.site("tip").xpos, atol=AGREE)
+    np.testing.assert_allclose(mj.jnt_axis[1], [0, 1, 0])  # the class reached MuJoCo too
+
+
 # -- refusals --------------------------------------------------------------------------------------
 ARM = """<mujoco>{compiler}<default>{default}</default>
   <worldbody><body name="base"><joint name="j1" axis="0 0 1"/><geom size="0.02"/>
