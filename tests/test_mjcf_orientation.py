@@ -167,6 +167,7 @@ FRAMED = """<mujoco>
   <compiler angle="radian" eulerseq="XYZ"/>
   <default><default class="turned"><joint axis="0 1 0"/><site pos="0.01 0 0"/></default></default>
   <worldbody>
+    <site name="ground_pin" pos="0.5 0 0" euler="0 0 0.7"/>
     <frame pos="0 0 0.2" euler="0.3 0 0.5">
       <body name="base">
         <joint name="j1" axis="0 0 1"/><geom size="0.02"/>
@@ -189,7 +190,8 @@ FRAMED = """<mujoco>
 def test_frames_are_composed_into_their_children():
     """MuJoCo 3 <frame>s, nested, rotated and carrying a childclass (a default joint axis and
     site pos), around the root body, a child body and sites: composed as MuJoCo composes them
-    (before: refused as 'put every body under a single root' for a file with one root)."""
+    (before: refused as 'put every body under a single root' for a file with one root); a site
+    of the world (which Pinocchio's reader drops) is a frame of the model."""
     model = pinocchio_model(FRAMED)
     assert disagreement(FRAMED, model) < AGREE
     assert disagreement(FRAMED, model, {"j1": -0.4, "j2": 0.9}) < AGREE
