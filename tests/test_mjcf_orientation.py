@@ -19,7 +19,6 @@ import pytest
 
 import clearance_pin as cp
 from clearance_pin.model import model_file
-from clearance_pin.model.mjcf_orientation import quat_matrix
 from clearance_pin.model.mjcf_placements import read_placements
 
 mujoco = pytest.importorskip("mujoco")
@@ -60,7 +59,7 @@ def disagreement(text: str, model: pin.Model, qpos: dict[str, float] | None = No
         worst = max(
             worst,
             np.linalg.norm(placed.translation - mjd.xpos[body]),
-            np.abs(placed.rotation - quat_matrix(mjd.xquat[body])).max(),
+            np.abs(placed.rotation - mjd.xmat[body].reshape(3, 3)).max(),
         )
     for site in range(mj.nsite):
         placed = data.oMf[model.getFrameId(mj.site(site).name, pin.FrameType.OP_FRAME)]
@@ -69,7 +68,6 @@ def disagreement(text: str, model: pin.Model, qpos: dict[str, float] | None = No
             np.linalg.norm(placed.translation - mjd.site_xpos[site]),
             np.abs(placed.rotation - mjd.site_xmat[site].reshape(3, 3)).max(),
         )
-    jacobian = None
     for joint in range(mj.njnt):
         kind = mj.jnt_type[joint]
         if kind not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
@@ -257,7 +255,7 @@ def test_the_independent_reading_is_mujocos():
         for body in range(1, mj.nbody):
             placed = placements.bodies[mj.body(body).name]
             np.testing.assert_allclose(placed.translation, mjd.xpos[body], atol=AGREE)
-            np.testing.assert_allclose(placed.rotation, quat_matrix(mjd.xquat[body]), atol=AGREE)
+            np.testing.assert_allclose(placed.rotation, mjd.xmat[body].reshape(3, 3), atol=AGREE)
         for site in range(mj.nsite):
             placed, _ = placements.sites[mj.site(site).name]
             np.testing.assert_allclose(placed.translation, mjd.site_xpos[site], atol=AGREE)
