@@ -219,9 +219,8 @@ class _Defaults:
                 raise ModelError(
                     source,
                     f"<default class='{name}'> <{child.tag} {oriented[0]}=...>",
-                    "an orientation given by a default class is not read (in MuJoCo a default's "
-                    "euler, axisangle, xyaxes or zaxis even overrides an element's own quat; "
-                    "Pinocchio's reader merges them otherwise): write it on the elements",
+                    "an orientation given by a default class is not read by clearance_pin's "
+                    "check of the placements: write it on the elements",
                 )
             self.entries[(name, child.tag)] = child
 
