@@ -386,6 +386,54 @@ def test_included_files_are_read_with_their_defaults_and_orientations(tmp_path):
     np.testing.assert_allclose(mj.jnt_axis[1], [0, 1, 0])  # the class reached MuJoCo too
 
 
+DEFAULT_ORIENTATIONS = """<mujoco><compiler angle="radian"/>
+  <default>
+    <site euler="0 0 1"/><geom euler="0.2 0 0"/>
+    <default class="quat"><site quat="0 1 0 0"/></default>
+    <default class="zaxis"><site zaxis="1 0 0"/><geom zaxis="0 1 1"/></default>
+    <default class="plain"><site size="0.02"/></default>
+  </default>
+  <worldbody>
+    <body name="base"><joint name="j1"/>
+      <geom name="g_main" size="0.02" pos="0.1 0 0"/><geom name="g_z" class="zaxis" size="0.02"/>
+      <geom name="g_fromto" type="capsule" size="0.01" fromto="0 0 0 0.1 0 0"/>
+      <site name="main"/><site name="own_quat" quat="0 0 1 0"/>
+      <site name="nearest_quat" class="quat"/><site name="nearest_zaxis" class="zaxis"/>
+      <site name="own_euler" class="zaxis" euler="1 0 0"/><site name="inherited" class="plain"/>
+      <body name="arm" childclass="quat" pos="0.2 0 0"><joint name="j2"/><geom size="0.02"/>
+        <site name="by_childclass"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_orientations_from_default_classes_as_mujoco():
+    """Orientations that <default> classes give sites and geoms: the element's own wins, else
+    the nearest class's, whatever the forms (MuJoCo, checked on combinations): MuJoCo's site
+    placements to 1e-9, and the geoms' (their collision geometry) too."""
+    model = pinocchio_model(DEFAULT_ORIENTATIONS)
+    assert disagreement(DEFAULT_ORIENTATIONS, model) < AGREE
+    mechanism = cp.loads(DEFAULT_ORIENTATIONS)
+    data = model.createData()
+    pin.forwardKinematics(model, data, np.array(model.referenceConfigurations["qpos0"]))
+    geometry = mechanism.collision_model
+    geometry_data = geometry.createData()
+    pin.updateGeometryPlacements(model, data, geometry, geometry_data)
+    _, mjd = mujoco_kinematics(DEFAULT_ORIENTATIONS)
+    placed = {g.name: m for g, m in zip(geometry.geometryObjects, geometry_data.oMg)}
+    for name in ("g_main", "g_z", "g_fromto"):
+        np.testing.assert_allclose(placed[name].translation, mjd.geom(name).xpos, atol=AGREE)
+        expected = mjd.geom(name).xmat.reshape(3, 3)
+        if name == "g_fromto":
+            # a capsule is symmetric about its z axis and end to end: the same shape with z
+            # either way along the segment (Pinocchio takes from -> to, MuJoCo to -> from)
+            dot = placed[name].rotation[:, 2] @ expected[:, 2]
+            assert abs(abs(dot) - 1) < AGREE
+            continue
+        np.testing.assert_allclose(placed[name].rotation, expected, atol=AGREE, err_msg=name)
+
+
 # -- refusals --------------------------------------------------------------------------------------
 ARM = """<mujoco>{compiler}<default>{default}</default>
   <worldbody><body name="base"><joint name="j1" axis="0 0 1"/><geom size="0.02"/>
@@ -408,10 +456,10 @@ REFUSED = {
         "<compiler eulerseq='xyw'>",
         ["3 letters of x, y, z"],
     ),
-    "an orientation in a default class": (
-        {"default": '<default class="k"><site euler="0 0 30"/></default>'},
-        "<default class='k'> <site euler=...>",
-        ["orientation given by a default class"],
+    "two orientations in a default class": (
+        {"default": '<default class="k"><site euler="0 0 30" zaxis="1 0 0"/></default>'},
+        "<default class='k'> <site>",
+        ["several orientations (euler, zaxis)"],
     ),
     "a class that does not exist": (
         {"extra": '<site name="s" class="nope"/>'},

@@ -4,8 +4,9 @@ and NumPy), and the same file rewritten so that Pinocchio's MJCF reader places t
 The rewrite (:func:`read_placements`), on a copy of the file's tree:
 
 1. ``<include>`` files are spliced in (relative to the file's directory);
-2. the ``pos`` (joints: also ``axis``, ``ref`` and ``type``) that a ``<default>`` class gives an
-   element is written on the element;
+2. the ``pos`` and orientation (joints: ``pos``, ``axis``, ``ref`` and ``type``) that a
+   ``<default>`` class gives an element are written on the element (MuJoCo: the element's own,
+   else the nearest class's), and the classes' orientations removed;
 3. every orientation (:mod:`~clearance_pin.model.mjcf_orientation`) becomes a unit ``quat``;
 4. every ``<frame>`` is composed into its children and removed (MuJoCo 3 frames): a child's
    ``pos`` becomes ``p_frame + R_frame p``, its ``quat`` ``q_frame q``, a joint's ``axis``
@@ -139,6 +140,7 @@ def read_placements(root: ET.Element, source: str, directory: Path | None) -> Fi
     for world in tree.findall("worldbody"):
         _resolve(world, "main", defaults, compiler, source, "")
         _flatten(world, source)
+    defaults.strip_orientations()
     placements = FilePlacements(tree)
     for world in tree.findall("worldbody"):
         _place_children(
@@ -214,15 +216,35 @@ class _Defaults:
             if child.tag == "default":
                 self._read(child, name, source, top=False)
                 continue
-            oriented = [a for a in ORIENTATIONS if child.get(a) is not None]
-            if oriented:
+            given = [a for a in ORIENTATIONS if child.get(a) is not None]
+            if len(given) > 1:
                 raise ModelError(
                     source,
-                    f"<default class='{name}'> <{child.tag} {oriented[0]}=...>",
-                    "an orientation given by a default class is not read by clearance_pin's "
-                    "check of the placements: write it on the elements",
+                    f"<default class='{name}'> <{child.tag}>",
+                    f"several orientations ({', '.join(given)}): MuJoCo takes at most one",
                 )
             self.entries[(name, child.tag)] = child
+
+    def orientation(self, cls: str, tag: str) -> tuple[str, str, str] | None:
+        """(class, attribute, value) of the nearest class of the chain that orients ``tag``
+        elements (MuJoCo: the nearest specification wins, whatever its form); None: none."""
+        seen = set()
+        current: str | None = cls
+        while current is not None and current not in seen:
+            seen.add(current)
+            entry = self.entries.get((current, tag))
+            given = [a for a in ORIENTATIONS if entry is not None and entry.get(a) is not None]
+            if entry is not None and given:
+                return current, given[0], str(entry.get(given[0]))
+            current = self.parent.get(current)
+        return None
+
+    def strip_orientations(self) -> None:
+        """Remove the orientations from the classes, once written on the elements (Pinocchio's
+        reader is not left to merge them its own way)."""
+        for entry in self.entries.values():
+            for attribute in ORIENTATIONS:
+                entry.attrib.pop(attribute, None)
 
     def get(self, cls: str, tag: str, attribute: str) -> str | None:
         seen = set()
@@ -258,8 +280,15 @@ def _resolve(
                     if value is not None:
                         child.set(attribute, value)
         given = ""
+        inherited = ""
+        own = any(child.get(a) is not None for a in (*ORIENTATIONS, "fromto"))
+        if child.tag in ORIENTED and not own:
+            found = defaults.orientation(cls, child.tag)
+            if found is not None:
+                child.set(found[1], found[2])
+                inherited = f" (orientation from default class '{found[0]}')"
         if child.tag in (*ORIENTED, "joint"):
-            given = _given(child, compiler)
+            given = _given(child, compiler) + inherited
             if child.tag == "site" and child.get("fromto") is not None:
                 given = f"fromto='{child.get('fromto')}'"
                 _site_fromto(child, source)
