@@ -20,10 +20,10 @@ Not read, and refused with a :class:`~clearance_pin.errors.ModelError` rather th
   as a clearance file;
 - a body with several joints (Pinocchio makes them one composite joint) and ``ball`` joints (a
   ball joint with play is a ``free`` joint with a ``spherical`` clearance);
-- a second body under ``<worldbody>`` (Pinocchio reads the first one and its subtree only);
-- procedural elements (``<replicate>``, ``<attach>``, ``<composite>``, ``<flexcomp>``), an
-  orientation in a ``<default>`` class, and placements Pinocchio's reader does not read as
-  MuJoCo does (the check above).
+- a second body under ``<worldbody>`` (Pinocchio reads the first one and its subtree only) and
+  a body without a name (Pinocchio drops it with its subtree);
+- procedural elements (``<replicate>``, ``<attach>``, ``<composite>``, ``<flexcomp>``), and
+  placements Pinocchio's reader does not read as MuJoCo does (the check above).
 """
 
 from __future__ import annotations
