@@ -7,8 +7,8 @@ on Pinocchio 4.1: bitwise equal): the two readers build the same tree. The answe
 side are checked independently elsewhere (tests/test_clearance_file.py's journal closed form;
 the four-bar in validation and the oracle). What MJCF says that is not read (equality
 constraints, ball joints, several joints in one body, a block inside the MJCF file) and what
-Pinocchio's reader drops or misplaces (a second root body, a fixed root body's placement) is
-refused with a ModelError naming it.
+Pinocchio's reader drops (a second root body) is refused with a ModelError naming it; placements
+are checked against MuJoCo in tests/test_mjcf_orientation.py.
 """
 
 from __future__ import annotations
