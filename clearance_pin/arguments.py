@@ -4,6 +4,13 @@ An argument of the wrong kind raises :class:`~clearance_pin.errors.ArgumentError
 is expected and what was found, before anything is built or solved (a mistyped backend is not a
 numerical failure). A nominal configuration outside the URDF limits is accepted with a
 :class:`~clearance_pin.errors.SuspectValueWarning` (:mod:`clearance_pin.model.plausibility`).
+
+Magnitudes are refused where double precision cannot carry them: a load (force [N], torque
+[N m], moment of a force about its link's origin [N m], gravity [m/s^2]) or a point [m] is
+squared on the way (norms, the cone programme's constraints), and squares leave the normal range
+of doubles beyond about 1e154 and below about 1e-154 (2.2e-308 is the smallest normal double).
+:data:`LARGEST_MAGNITUDE` and :data:`SMALLEST_LOAD` keep a margin of four decades; below the
+latter a load was solved as no load (no contact) before, without a word.
 """
 
 from __future__ import annotations
@@ -11,12 +18,13 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .equilibrium.cone_solver import BACKENDS
-from .errors import ArgumentError
+from .errors import ArgumentError, LoadError, ModelError
 from .model import plausibility
 from .model.loads import Gravity, PointForce, Torque
 
@@ -24,6 +32,19 @@ if TYPE_CHECKING:
     from .mechanism import Mechanism
 
 LOAD_TYPES = (PointForce, Torque, Gravity)
+
+#: the largest load [N, N m, m/s^2] or point coordinate [m] taken (module docstring)
+LARGEST_MAGNITUDE = 1e150
+#: the smallest load [N, N m, m/s^2] taken, unless it is exactly zero (module docstring)
+SMALLEST_LOAD = 1e-150
+#: a joint's play is refused above this many times the mechanism's size (check_clearance_sizes)
+LARGEST_PLAY = 10.0
+#: ``tolerance --positions``: at most this many positions (about 10 ms each on a slider-crank
+#: with the default 10000 Monte Carlo samples: 100 s)
+MOST_POSITIONS = 10_000
+#: ``tolerance --samples``: at most this many Monte Carlo samples per position and law (a
+#: million take about a second and some hundred MB on a slider-crank)
+MOST_SAMPLES = 1_000_000
 
 
 def _is_bool(value: object) -> bool:
@@ -125,11 +146,124 @@ def check_solve(
     backend: object,
     accuracy: object,
     warm_start: object,
+    outputs: object = None,
 ) -> np.ndarray | None:
     """Every argument of :meth:`Mechanism.solve`; returns ``q`` as an array (or None)."""
     check_options(exact, gravity, tol, backend, accuracy, warm_start)
     check_loads(loads)
+    check_outputs(outputs)
     return check_configuration(mechanism, q)
+
+
+def check_outputs(outputs: object) -> None:
+    """``outputs`` is None or a list (any iterable) of Pinocchio frame names; the names
+    themselves are looked up by :func:`~clearance_pin.equilibrium.outputs.resolve_outputs`."""
+    if outputs is None or (
+        isinstance(outputs, (list, tuple)) and all(type(n) is str for n in outputs)
+    ):
+        return
+    expected = "None or a list of Pinocchio frame names (write outputs=[name] for one)"
+    if isinstance(outputs, (str, bytes, Mapping)) or not isinstance(outputs, Iterable):
+        raise ArgumentError("outputs", expected, outputs)
+    if isinstance(outputs, Sequence):  # not consuming an iterator
+        for index, name in enumerate(outputs):
+            if not isinstance(name, str):
+                raise ArgumentError(f"outputs[{index}]", "a Pinocchio frame name", name)
+
+
+def check_load_magnitudes(loads: Iterable[object], argument: str = "loads") -> None:
+    """The loads' magnitudes are within what double precision carries (module docstring):
+    every force, torque, moment about the link origin |p x F| and gravity at most
+    :data:`LARGEST_MAGNITUDE`, every point coordinate too, and the largest of them, unless all
+    are zero, at least :data:`SMALLEST_LOAD` (the equilibrium pose does not depend on the loads'
+    common scale: multiplying them all by one factor gives the same pose).
+
+    Raises:
+        LoadError: naming the load and its magnitude.
+    """
+    largest, largest_label, largest_unit = 0.0, "", ""
+    where = "" if argument == "loads" else f" in {argument}"
+    for load in loads:
+        if isinstance(load, PointForce):
+            label = f"force on {load.link!r}{where}"
+            point = float(np.max(np.abs(load.point)))
+            if point > LARGEST_MAGNITUDE:
+                raise LoadError(label, _too_large("point", point, "m"))
+            force = float(np.max(np.abs(load.force)))
+            magnitude, unit = force, "N"
+            if force * point > force:  # a point farther than 1 m: its moment is the larger
+                magnitude, unit = force * point, "N m (the moment |p x F| about the link origin)"
+        elif isinstance(load, Torque):
+            label, unit = f"torque on {load.link!r}{where}", "N m"
+            magnitude = float(np.max(np.abs(load.torque)))
+        elif isinstance(load, Gravity):
+            label, unit = f"gravity{where}", "m/s^2"
+            magnitude = float(np.max(np.abs(load.acceleration)))
+        else:
+            continue  # not a load: refused, naming it, by Mechanism.resolve_loads
+        if magnitude > LARGEST_MAGNITUDE:
+            raise LoadError(label, _too_large("magnitude", magnitude, unit))
+        if magnitude > largest:
+            largest, largest_label, largest_unit = magnitude, label, unit
+    if 0.0 < largest < SMALLEST_LOAD:
+        raise LoadError(
+            largest_label,
+            f"the largest load is {largest:.3g} {largest_unit}, below the smallest taken, "
+            f"{SMALLEST_LOAD:.0e} (double precision loses its square); the settled pose does not depend "
+            "on the loads' common scale: multiply them all by one factor",
+        )
+
+
+def _too_large(what: str, value: float, unit: str) -> str:
+    return (
+        f"{what} {value:.3g} {unit} is beyond the largest taken, {LARGEST_MAGNITUDE:.0e} "
+        "(its square overflows double precision)"
+    )
+
+
+def check_point(argument: str, point: np.ndarray, given: object) -> None:
+    """A point [m] (an output point, a load's point) within :data:`LARGEST_MAGNITUDE`."""
+    largest = float(np.max(np.abs(point), initial=0.0))
+    if largest > LARGEST_MAGNITUDE:
+        raise ArgumentError(
+            argument,
+            f"a point of 3 finite numbers [m] within {LARGEST_MAGNITUDE:.0e} m",
+            given,
+            "its square overflows double precision",
+        )
+
+
+def check_count(argument: str, value: object, lowest: int, highest: int | None = None) -> int:
+    """An integer option in ``[lowest, highest]`` (``--positions``, ``--samples``, ``chunks``)."""
+    if (
+        _is_bool(value)
+        or not isinstance(value, numbers.Integral)
+        or int(value) < lowest
+        or (highest is not None and int(value) > highest)
+    ):
+        expected = f"an integer >= {lowest}"
+        if highest is not None:
+            expected = f"an integer from {lowest} to {highest}"
+        raise ArgumentError(argument, expected, value)
+    return int(value)
+
+
+def check_seed(argument: str, value: object) -> int:
+    """A random seed: an integer >= 0 (NumPy's SeedSequence refuses negative ones)."""
+    if _is_bool(value) or not isinstance(value, numbers.Integral) or int(value) < 0:
+        raise ArgumentError(argument, "an integer >= 0", value)
+    return int(value)
+
+
+def check_executor(executor: object) -> None:
+    """``executor`` is None or a ``concurrent.futures.Executor`` (anything with ``submit``, as
+    Dask's ``client.get_executor()``)."""
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        raise ArgumentError(
+            "executor",
+            "None or a concurrent.futures.Executor (an object with a submit method)",
+            executor,
+        )
 
 
 def check_solve_many(
@@ -146,6 +280,10 @@ def check_solve_many(
     errors = options.get("errors", "raise")
     if not (isinstance(errors, str) and errors in ("raise", "return")):
         raise ArgumentError("errors", "'raise' or 'return'", errors)
+    check_executor(options.get("executor"))
+    chunks = options.get("chunks")
+    if chunks is not None:
+        check_count("chunks", chunks, 1)
     if loads is not None:
         if isinstance(loads, (*LOAD_TYPES, str, bytes, dict)) or not isinstance(loads, Iterable):
             raise ArgumentError("loads", "a list of load cases (each a list of loads)", loads)
@@ -162,6 +300,11 @@ def check_solve_many(
                         case,
                     )
                 check_loads(case, f"loads[{index}]")
+            for index, case in enumerate(loads):
+                if type(case) in (list, tuple):
+                    check_load_magnitudes(case, f"loads[{index}]")
+    if loads is None:
+        check_load_magnitudes((*mechanism.loads, mechanism.gravity), "the model's loads")
     if configurations is not None:
         if isinstance(configurations, (str, bytes)) or not isinstance(configurations, Iterable):
             raise ArgumentError(
@@ -170,3 +313,59 @@ def check_solve_many(
         if isinstance(configurations, (Sequence, np.ndarray)):  # not consuming an iterator
             for index, q in enumerate(configurations):
                 check_configuration(mechanism, q, f"configurations[{index}]", warn=False)
+
+
+def check_clearance_sizes(mechanism: Mechanism) -> None:
+    """Every joint's plays (radial, axial, play_z [m]) are at most :data:`LARGEST_PLAY` times
+    the whole mechanism (:meth:`Mechanism.length_scale`), and its lengths (journal, block width
+    and height [m]) within :data:`LARGEST_MAGNITUDE`.
+
+    A play above 5 % of its part is warned (:mod:`clearance_pin.model.plausibility`); one many
+    times the whole mechanism is refused: the small-displacement model means nothing there, and
+    the solver's scaling by the plays breaks down (pin_A of the 0.137 m slider-crank with a 10 m
+    play, the others 50 um, was reported as an unblocked motion; 3 m still solved; 1e308 m was an
+    IndexError).
+
+    Raises:
+        ModelError: naming the joint's element, the value and the bound.
+    """
+    for joint in mechanism.joints.values():
+        clearance = joint.clearance
+        tag = "joint" if hasattr(joint, "joint_id") else "loop_joint"
+        element = f"<{tag} name='{joint.name}'>"
+        for name in ("length", "width", "height"):
+            value = float(getattr(clearance, name))
+            if value > LARGEST_MAGNITUDE:
+                raise ModelError(mechanism.source, element, _too_large(name, value, "m"))
+        play = float(clearance.max_play)
+        if play > 0.0 and play > LARGEST_PLAY * mechanism.length_scale():
+            raise ModelError(
+                mechanism.source,
+                element,
+                f"clearance {play:.6g} m is more than {LARGEST_PLAY:g} times the whole mechanism "
+                f"({mechanism.length_scale():.6g} m: its farthest joint from the root or its "
+                "longest journal); clearances are in metres: 50 um is 5e-05",
+            )
+
+
+#: the file types a plot is written in (matplotlib's, by the file name's extension)
+PLOT_FORMATS = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp")
+
+
+def check_output_file(option: str, path: Path, formats: Sequence[str] = ()) -> None:
+    """A file to write (``--plot``, ``--json``): in an existing folder, not a folder itself, and
+    of one of ``formats`` by its extension when they are given; checked before any work."""
+    folder = path.parent
+    if not folder.is_dir():
+        raise ArgumentError(
+            option, "a file in an existing folder", str(path), f"no folder {folder}"
+        )
+    if path.is_dir():
+        raise ArgumentError(option, "a file to write", str(path), "a folder")
+    if formats and path.suffix.lower().lstrip(".") not in formats:
+        raise ArgumentError(
+            option,
+            f"a file name ending in one of .{', .'.join(formats)}",
+            str(path),
+            "unknown file type",
+        )

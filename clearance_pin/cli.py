@@ -15,7 +15,9 @@ Exit status:
 - 1: the answer's residuals or the coal check out of tolerance (the result is printed, then one
   line on standard error saying which);
 - 2: a bad model, load or option: one line naming the file, the element and the problem; bad
-  command-line arguments also exit with 2 (argparse's usage message);
+  command-line arguments also exit with 2 (argparse's usage message), as does a file that cannot
+  be read or written (checked before any work where it can be: ``--plot`` of a known type,
+  ``--json`` in an existing folder);
 - 3: no equilibrium: the load drives a motion that nothing blocks (the line names the motion);
 - 4: the solver did not reach a verified answer (the line gives its status and residuals).
 """
@@ -167,11 +169,15 @@ def _one_line_warnings(
 
 
 def _say(args: argparse.Namespace, text: object) -> None:
-    """One line on standard error, ``clearance-pin: MODEL: text`` (the model named once)."""
+    """One line on standard error, ``clearance-pin: MODEL: text`` (the model named once); a
+    character that standard error cannot encode (a lone surrogate of an undecodable file name)
+    is written as a backslash escape."""
     line = " ".join(str(text).splitlines())
     model = getattr(args, "model", None)
     if model is not None and not line.startswith(str(model)):
         line = f"{model}: {line}"
+    encoding = getattr(sys.stderr, "encoding", None) or "utf-8"
+    line = line.encode(encoding, "backslashreplace").decode(encoding)
     print(f"clearance-pin: {line}", file=sys.stderr)
 
 
@@ -180,6 +186,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     warnings.showwarning = _one_line_warnings
     try:
+        _check_output_files(args)
         status: int = args.run(args)
         return status
     except UnboundedLoadError as exc:
@@ -191,6 +198,21 @@ def main(argv: list[str] | None = None) -> int:
     except ClearancePinError as exc:
         _say(args, exc)
         return BAD_INPUT
+    except OSError as exc:  # a file written at the end (a full disk, a folder removed meanwhile)
+        where = f"{exc.filename}: " if exc.filename else ""
+        _say(args, f"{where}cannot be read or written: {exc.strerror or exc}")
+        return BAD_INPUT
+
+
+def _check_output_files(args: argparse.Namespace) -> None:
+    """``--plot`` and ``--json`` FILE of any sub-command, before any work (a mistyped extension
+    or folder found after a minute's sweep loses the minute)."""
+    from .arguments import PLOT_FORMATS, check_output_file
+
+    for option, formats in (("plot", PLOT_FORMATS), ("json", ())):
+        value = getattr(args, option, None)
+        if isinstance(value, Path):  # solve's --json is a flag: the JSON goes to stdout
+            check_output_file(f"--{option}", value, formats)
 
 
 if __name__ == "__main__":

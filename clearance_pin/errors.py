@@ -189,3 +189,9 @@ class SuspectValueWarning(ClearancePinWarning):
 class ConditioningWarning(ClearancePinWarning):
     """The loop closure is nearly singular (a toggle or dead-centre position): the
     small-displacement answer loses accuracy roughly as 1 / conditioning."""
+
+
+class KernelUnavailableWarning(ClearancePinWarning):
+    """The compiled kernel (numba) could not be loaded, most often because numba's cache is not
+    writable (a read-only install: set ``NUMBA_CACHE_DIR`` to a writable folder): the solves go
+    the NumPy way, slower per re-solve, with the same answers. Given once per process."""

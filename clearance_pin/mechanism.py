@@ -11,7 +11,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pinocchio as pin
 
-from .arguments import check_solve, check_solve_many
+from .arguments import (
+    check_clearance_sizes,
+    check_load_magnitudes,
+    check_solve,
+    check_solve_many,
+)
 from .equilibrium.cache import SolveCache
 from .equilibrium.outputs import resolve_outputs
 from .equilibrium.second_order import estimate_difference
@@ -109,6 +114,7 @@ class Mechanism:
             raise ModelError(source, "<joints>", "joint names must be unique across tree and loops")
         self.cache = SolveCache(model)
         if check_values:  # unit mistakes warned before the loops are closed (which they may break)
+            check_clearance_sizes(self)  # refused, not warned: the solver cannot carry them
             given = nominal_given
             if given is None:
                 given = plausibility.configuration_values(model, self.q_nominal)
@@ -311,9 +317,10 @@ class Mechanism:
         Returns:
             :class:`~clearance_pin.equilibrium.result.Equilibrium`.
         """
-        q = check_solve(self, loads, exact, q, gravity, tol, backend, accuracy, warm_start)
+        q = check_solve(self, loads, exact, q, gravity, tol, backend, accuracy, warm_start, outputs)
         gravity_load = False if gravity is False else gravity
         resolved = self.resolve_loads(loads, gravity_load)
+        check_load_magnitudes(resolved)
         try:
             return self._solve(resolved, exact, q, tol, backend, accuracy, warm_start, outputs)
         except (np.linalg.LinAlgError, OverflowError, FloatingPointError, ValueError) as exc:

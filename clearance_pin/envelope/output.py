@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from ..arguments import check_point
 from ..errors import ArgumentError, NotFoundError
 
 Vector = npt.NDArray[np.float64]
@@ -150,6 +151,7 @@ def _checked_point(
         )
     if point.shape != (3,) or not np.all(np.isfinite(point)):
         raise ArgumentError("output", "a point of 3 finite numbers [m], link frame", given)
+    check_point("output", point, given)
     x, y, z = (float(v) for v in point)
     return link, point, f"{link}@[{x:.6g} {y:.6g} {z:.6g}]"
 

@@ -20,10 +20,12 @@ from __future__ import annotations
 import os
 import threading
 import time
+import warnings
 from typing import NamedTuple
 
 import numpy as np
 
+from ..errors import KernelUnavailableWarning
 from ..model.loads import Gravity, PointForce, Torque
 from .cone_solver import WARM_MAX_SIZE, ConeSolution, acceptance
 from .frozen import FieldTemplate
@@ -60,17 +62,37 @@ def load_kernel() -> float:
     """Load the compiled kernel now (numba's import, then its compiled functions from numba's
     on-disk cache, compiling them the first time on a machine) and return the seconds it took;
     a planner calls this at start-up so that no solve later waits for it. Raises ImportError
-    when numba is not installed; a no-op when ``CLEARANCE_PIN_COMPILED=0``."""
-    if os.environ.get("CLEARANCE_PIN_COMPILED") == "0":
+    when numba is not installed; a no-op when ``CLEARANCE_PIN_COMPILED=0``.
+
+    When numba is installed but cannot load it (its cache not writable on a read-only install,
+    where numba raises a RuntimeError; a failed compilation), the solves go the NumPy way: one
+    :class:`~clearance_pin.errors.KernelUnavailableWarning` says why, and 0.0 is returned."""
+    if os.environ.get("CLEARANCE_PIN_COMPILED") == "0" or "failed" in _loaded:
         return 0.0
     with _lock:
-        if _loaded.get("kernel") is None:
+        if _loaded.get("kernel") is None and "failed" not in _loaded:
             started = time.perf_counter()
-            from . import kernel
+            try:
+                from . import kernel
 
-            kernel.warm_up()
+                kernel.warm_up()
+            except ImportError:
+                raise
+            except Exception as exc:  # numba's own errors: the NumPy path answers
+                _loaded["failed"] = True
+                reason = " ".join(f"{type(exc).__name__}: {exc}".split())
+                warnings.warn(
+                    f"the compiled kernel is unavailable ({reason}); the solves go the NumPy "
+                    "way, with the same answers (a read-only install: set NUMBA_CACHE_DIR to a "
+                    "writable folder)",
+                    KernelUnavailableWarning,
+                    stacklevel=2,
+                )
+                return 0.0
             _loaded["kernel"] = kernel
             _loaded["seconds"] = time.perf_counter() - started
+    if "failed" in _loaded:
+        return 0.0
     return float(_loaded["seconds"])  # type: ignore[arg-type]
 
 
@@ -106,7 +128,7 @@ def compiled_kernel(engage: int = 0):
     except ImportError:  # numba not installed: the NumPy path answers
         _loaded["failed"] = True
         return None
-    return _loaded["kernel"]
+    return _loaded.get("kernel")  # None when it failed to load (load_kernel warned)
 
 
 def _load_in_background() -> None:

@@ -29,6 +29,7 @@ refused otherwise.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypeAlias
@@ -36,7 +37,7 @@ from typing import TYPE_CHECKING, TypeAlias
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ModelError
+from ..errors import ArgumentError, ModelError
 from ..model.clearance import ALPHA, U
 from ..model.joints import LoopJoint
 
@@ -424,18 +425,68 @@ def follow_branch(
     closed from the previous one, so the passive joints stay on ``start``'s assembly branch (a
     direct Gauss-Newton from far away may land on the other branch of a four-bar or a
     slider-crank). Idle motions are held nearest the nominal configuration at every step.
+
+    A revolute driven joint walks the shorter way round: to the value of ``target`` minus a whole
+    number of turns nearest its start (the same pose), the last step closing at ``target``'s own
+    value (q = 1e6 rad walked 2e7 steps before, for hours). A walk of more than
+    :data:`MOST_WALK_STEPS` steps (a prismatic drive 100 length scales away) is refused.
+
+    Raises:
+        ArgumentError: a driven value farther than :data:`MOST_WALK_STEPS` steps, naming the joint.
     """
     driven, scales = driven_coordinates(mechanism)
     if not driven:
         return close_loops(mechanism, target)
-    span = float(np.max(np.abs(target[driven] - start[driven]) / scales, initial=0.0))
+    goal = target[driven].astype(float)
+    revolute = _revolute_coordinates(mechanism)
+    for position, index in enumerate(driven):
+        if index in revolute:
+            goal[position] = start[index] + math.remainder(
+                target[index] - start[index], 2 * math.pi
+            )
+    distances = np.abs(goal - start[driven]) / scales
+    span = float(np.max(distances, initial=0.0))
     count = max(1, int(np.ceil(span / step)))
+    if count > MOST_WALK_STEPS:
+        far = driven[int(np.argmax(distances))]
+        model = mechanism.model
+        name = next(
+            str(model.names[j])
+            for j in range(1, model.njoints)
+            if far - model.idx_qs[j] in range(model.nqs[j])
+        )
+        raise ArgumentError(
+            "q",
+            f"driven values within {MOST_WALK_STEPS * step:g} length scales "
+            f"({MOST_WALK_STEPS * step * mechanism.length_scale():.6g} m) of a closed "
+            "configuration (the loops are closed by continuation from there)",
+            float(target[far]),
+            f"joint {name!r} is {float(np.max(distances)):.3g} length scales away",
+        )
     q = start.copy()
     for k in range(1, count + 1):
         q = q.copy()
-        q[driven] = start[driven] + (target[driven] - start[driven]) * (k / count)
+        if k < count:
+            q[driven] = start[driven] + (goal - start[driven]) * (k / count)
+        else:  # target's own values: whole turns apart from goal, closed without round-off
+            q[driven] = target[driven]
         q = close_loops(mechanism, q)
     return q
+
+
+#: the most steps :func:`follow_branch` walks (100 rad, or 100 length scales, at 0.05 a step)
+MOST_WALK_STEPS = 2000
+
+
+def _revolute_coordinates(mechanism: Mechanism) -> set[int]:
+    """Configuration indices of the driven revolute joints' angles (one value each, 2 pi
+    periodic; a continuous joint's (cos, sin) pair is not one)."""
+    model = mechanism.model
+    return {
+        int(model.joints[joint.joint_id].idx_q)
+        for joint in mechanism.tree_joints
+        if joint.driven and joint.motion_component == ALPHA and model.joints[joint.joint_id].nq == 1
+    }
 
 
 def driven_coordinates(mechanism: Mechanism) -> tuple[list[int], np.ndarray]:

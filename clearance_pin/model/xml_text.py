@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import codecs
 import re
+import warnings
 import xml.etree.ElementTree as ET
 import xml.parsers.expat
 
@@ -31,16 +32,35 @@ def decode_xml(data: bytes, source: str = "<string>") -> str:
     parser = xml.parsers.expat.ParserCreate()
     parser.XmlDeclHandler = lambda version, encoding, standalone: declared.append(encoding)
     try:
-        parser.Parse(data, True)
+        with warnings.catch_warnings():  # expat tries every byte of a declared unicode_escape,
+            warnings.simplefilter("ignore", DeprecationWarning)  # each bad escape warned
+            parser.Parse(data, True)
     except xml.parsers.expat.ExpatError as exc:
         raise ModelError(source, "<xml>", f"malformed XML: {exc}") from None
+    except ValueError as exc:  # expat refuses a declared multi-byte encoding (utf-32, utf-7)
+        raise ModelError(source, "<xml>", f"cannot be decoded: {exc}") from None
     encoding = next((name for bom, name in _BOMS if data.startswith(bom)), None)
     encoding = encoding or (declared[0] if declared and declared[0] else "utf-8")
     try:
         text = data.decode(encoding)
     except (UnicodeDecodeError, LookupError) as exc:
         raise ModelError(source, "<xml>", f"cannot be decoded as {encoding}: {exc}") from None
+    _check_characters(text, source, f"after decoding as {encoding}")
     return without_declaration(text)
+
+
+def _check_characters(text: str, source: str, how: str) -> None:
+    """``text`` has no lone surrogate (a declared ``unicode_escape`` decodes ``\\ud800`` to one,
+    a str from Python may hold one): not a character, and Pinocchio's parsers read UTF-8."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise ModelError(
+            source,
+            "<xml>",
+            f"a lone surrogate {text[exc.start]!r} at character {exc.start} {how} (not a "
+            "character; the parsers read UTF-8)",
+        ) from None
 
 
 def without_declaration(text: str) -> str:
@@ -54,6 +74,7 @@ def xml_text(text: object, source: str, argument: str = "text") -> str:
         return decode_xml(bytes(text), source)
     if not isinstance(text, str):
         raise ArgumentError(argument, "the model file's text (str or bytes)", text)
+    _check_characters(text, source, "of the text given")
     return without_declaration(text)
 
 

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
+from ..arguments import MOST_POSITIONS, MOST_SAMPLES, check_count, check_seed
 from ..errors import ArgumentError, ClearancePinError
 from .sensitivity import Output, determined_outputs, parse_output, sensitivities
 from .sweep import (
@@ -61,7 +62,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="an output (repeatable); default: the moved coordinates of the leaf links",
     )
     parser.add_argument("--joint", help="driven joint to sweep (default: the only driven joint)")
-    parser.add_argument("--positions", type=int, default=25, help="positions (default 25)")
+    parser.add_argument(
+        "--positions",
+        type=int,
+        default=25,
+        help=f"positions (default 25, at most {MOST_POSITIONS})",
+    )
     parser.add_argument(
         "--start",
         type=float,
@@ -90,9 +96,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--samples",
         type=int,
         default=10_000,
-        help="Monte Carlo samples per position and law (default 10000, 0: none)",
+        help="Monte Carlo samples per position and law (default 10000, 0: none, at most "
+        f"{MOST_SAMPLES})",
     )
-    parser.add_argument("--seed", type=int, default=0, help="Monte Carlo seed (default 0)")
+    parser.add_argument("--seed", type=int, default=0, help="Monte Carlo seed >= 0 (default 0)")
     parser.add_argument("--exact", action="store_true", help="exact worst case per position")
     parser.add_argument(
         "--no-maxima", action="store_true", help="skip the maxima over the continuous cycle"
@@ -139,7 +146,12 @@ def run(args: argparse.Namespace) -> int:
     """Run the sub-command; returns the exit status (0)."""
     from ..loading import load
 
+    check_count("--positions", args.positions, 1, MOST_POSITIONS)
+    if args.samples != 0:  # 0: no Monte Carlo; one sample has no spread
+        check_count("--samples", args.samples, 2, MOST_SAMPLES)
+    check_seed("--seed", args.seed)
     mechanism = load(args.model)
+    _check_driven(mechanism, args.joint)
     if not mechanism.dimensions:
         raise ClearancePinError(
             f"{args.model}: no <dimension> element in the <clearance_pin> "
@@ -190,6 +202,23 @@ def run(args: argparse.Namespace) -> int:
         args.json.write_text(json.dumps(_document(args.model, result, maxima, budget), indent=1))
         print(f"JSON written to {args.json}")
     return 0
+
+
+def _check_driven(mechanism: Mechanism, joint: str | None) -> None:
+    """``--joint`` names a driven joint: the sweep moves it and holds it there, which only a
+    drive does (a passive joint's value is the loop's to set; sweeping it gave bands of a
+    mechanism that does not move that way). Unknown names are left to the sweep's message."""
+    if joint is None or joint not in mechanism.joints:
+        return
+    if not getattr(mechanism.joints[joint], "driven", False):
+        driven = [j.name for j in mechanism.tree_joints if j.driven]
+        raise ArgumentError(
+            "--joint",
+            f'a driven joint (driven="true" in its <joint> element; the driven joints are: '
+            f"{', '.join(driven) or '(none)'})",
+            joint,
+            f"{joint} is not driven",
+        )
 
 
 def _range_si(mechanism: Mechanism, args: argparse.Namespace) -> tuple[float, float, float]:
