@@ -186,19 +186,19 @@ def check_load_magnitudes(loads: Iterable[object], argument: str = "loads") -> N
     for load in loads:
         if isinstance(load, PointForce):
             label = f"force on {load.link!r}{where}"
-            point = float(np.max(np.abs(load.point)))
+            point = _largest(load.point)
             if point > LARGEST_MAGNITUDE:
                 raise LoadError(label, _too_large("point", point, "m"))
-            force = float(np.max(np.abs(load.force)))
+            force = _largest(load.force)
             magnitude, unit = force, "N"
             if force * point > force:  # a point farther than 1 m: its moment is the larger
                 magnitude, unit = force * point, "N m (the moment |p x F| about the link origin)"
         elif isinstance(load, Torque):
             label, unit = f"torque on {load.link!r}{where}", "N m"
-            magnitude = float(np.max(np.abs(load.torque)))
+            magnitude = _largest(load.torque)
         elif isinstance(load, Gravity):
             label, unit = f"gravity{where}", "m/s^2"
-            magnitude = float(np.max(np.abs(load.acceleration)))
+            magnitude = _largest(load.acceleration)
         else:
             continue  # not a load: refused, naming it, by Mechanism.resolve_loads
         if magnitude > LARGEST_MAGNITUDE:
@@ -212,6 +212,12 @@ def check_load_magnitudes(loads: Iterable[object], argument: str = "loads") -> N
             f"{SMALLEST_LOAD:.0e} (double precision loses its square); the settled pose does not depend "
             "on the loads' common scale: multiply them all by one factor",
         )
+
+
+def _largest(vector: np.ndarray) -> float:
+    """The largest absolute component of a 3-vector (a Python max: about 0.5 us, a third of
+    NumPy's on 3 values; this runs on every solve)."""
+    return float(max(map(abs, vector.tolist())))
 
 
 def _too_large(what: str, value: float, unit: str) -> str:
