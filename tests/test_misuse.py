@@ -317,3 +317,16 @@ def test_an_unwritable_numba_cache_falls_back_to_numpy(tmp_path, slider_crank):
     assert counts.split() == ["1", "0.0", "None"]
     values = np.array([float(v) for v in answers.split()]).reshape(2, 6)
     np.testing.assert_allclose(values, [slider_crank.solve().torsor("pin_A")] * 2, atol=1e-12)
+
+
+def test_a_driven_slide_far_away_is_refused_naming_the_joint():
+    """leg1 of the Stewart platform (a driven prismatic joint, length scale 0.215 m) at +1000 m:
+    the closure walked towards it until a step failed to close (a ModelError on a loop joint,
+    saying nothing of q); a walk of more than 2000 steps (100 length scales) is now refused at
+    once, an ArgumentError on q naming leg1."""
+    stewart = cp.load(ROOT / "tests" / "data" / "stewart_6ups.urdf")
+    q = stewart.q_nominal.copy()
+    q[stewart.model.joints[stewart.model.getJointId("leg1")].idx_q] += 1e3
+    with pytest.raises(cp.ArgumentError) as caught:
+        stewart.solve(q=q)
+    assert caught.value.argument == "q" and "joint 'leg1'" in caught.value.note
