@@ -11,6 +11,7 @@ to the world, and the wrong models solved with ok=True.
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -642,3 +643,29 @@ def test_meshes_are_found_beside_the_rewritten_file(tmp_path):
     vertex = geometry_data.oMg[0].act(np.array([0.1, 0.1, 0.1]))
     vertices = mjd.geom_xpos[0] + mj.mesh_vert.reshape(-1, 3) @ mjd.geom_xmat[0].reshape(3, 3).T
     assert np.min(np.linalg.norm(vertices - vertex, axis=1)) < 1e-6  # float32 mesh vertices
+
+
+def test_the_nominal_pose_is_where_the_file_draws_the_parts(tmp_path):
+    """A hinge with ``ref`` (MuJoCo's qpos0 = ref: the file draws the parts there): the
+    mechanism's nominal configuration is MuJoCo's qpos0 (its ``mj_model.qpos0``, degrees
+    converted by MuJoCo), so the tip's nominal placement is MuJoCo's site placement at qpos0
+    (before: q = 0, the parts turned by -ref from where the file draws them)."""
+    text = ORIENTED_ARM.format(orientation=ORIENTATIONS["zaxis"], ref=25)
+    path = tmp_path / "arm.xml"
+    path.write_text(text)
+    play = tmp_path / "play.toml"
+    play.write_text(
+        '[defaults.revolute]\ntype = "revolute"\nradial_clearance = 2e-5\naxial_clearance = 1e-5\n'
+        "length = 0.02\ndriven = true\n"
+    )
+    mechanism = cp.load(path, clearances=play)
+    mj = mujoco.MjModel.from_xml_string(text)
+    j2 = mechanism.model.joints[mechanism.model.getJointId("j2")].idx_q
+    assert mechanism.q_nominal[j2] == pytest.approx(mj.qpos0[mj.joint("j2").qposadr[0]], abs=1e-15)
+    assert mechanism.q_nominal[j2] == pytest.approx(math.radians(25), abs=1e-15)
+    data = mechanism.model.createData()
+    pin.framesForwardKinematics(mechanism.model, data, mechanism.q_nominal)
+    mj_data = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, mj_data)
+    tip = data.oMf[mechanism.model.getFrameId("tip")].translation
+    np.testing.assert_allclose(tip, mj_data.site("tip").xpos, rtol=0, atol=1e-12)

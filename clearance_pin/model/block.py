@@ -122,8 +122,9 @@ class BlockContents:
 
     Attributes:
         tree_joints: every joint of the model with its clearance (ideal when none is given).
-        q_nominal: the nominal configuration (nq,): Pinocchio's neutral one with the block's
-            nominal values.
+        q_nominal: the nominal configuration (nq,): where the model file draws the parts
+            (an MJCF file's ``qpos0``, each joint at its ``ref``; Pinocchio's neutral one for a
+            URDF) with the block's nominal values.
         nominal_given: joint id -> nominal value [rad or m] as the block gives it.
         loop_joints: the cut joints.
         loads: forces and torques.
@@ -313,7 +314,7 @@ class _BlockReader:
         model = self.model
         declared = self._declared()
         defaults = self._defaults()
-        q = pin.neutral(model)
+        q = drawn_configuration(model)
         joints = []
         for joint_id in range(1, model.njoints):
             name = model.names[joint_id]
@@ -572,3 +573,12 @@ __all__ = [
     "read_loop_joints",
     "set_nominal",
 ]
+
+
+def drawn_configuration(model: pin.Model) -> np.ndarray:
+    """The configuration (nq,) at which the model file draws its parts: MuJoCo's ``qpos0``
+    (every joint at its ``ref``) that Pinocchio's MJCF reader records, else the neutral one
+    (a URDF draws its parts at q = 0)."""
+    if "qpos0" in model.referenceConfigurations:
+        return np.array(model.referenceConfigurations["qpos0"], dtype=float)
+    return np.asarray(pin.neutral(model), dtype=float)

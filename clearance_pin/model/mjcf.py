@@ -38,7 +38,14 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError
-from .block import BLOCK, ClearanceBlock, empty_block, joint_table, read_block
+from .block import (
+    BLOCK,
+    ClearanceBlock,
+    drawn_configuration,
+    empty_block,
+    joint_table,
+    read_block,
+)
 from .description import MechanismDescription, combined_source, describe
 from .mjcf_orientation import matrix_quat
 from .mjcf_placements import FilePlacements, read_placements
@@ -200,15 +207,6 @@ def _site_frame(model: pin.Model, name: str) -> int | None:
     return sites[0] if sites else None
 
 
-def _reference(model: pin.Model) -> np.ndarray:
-    """MuJoCo's qpos0 as Pinocchio read it (every joint at its ref): where the file draws the
-    bodies."""
-    try:
-        return np.array(model.referenceConfigurations["qpos0"], dtype=float)
-    except (KeyError, IndexError, RuntimeError):
-        return np.asarray(pin.neutral(model), dtype=float)
-
-
 def _shown(rotation: np.ndarray, translation: np.ndarray) -> str:
     return (
         f"{np.round(translation, 9).tolist()} m, quat {np.round(matrix_quat(rotation), 9).tolist()}"
@@ -225,7 +223,7 @@ def check_placements(model: pin.Model, placements: FilePlacements, source: str) 
     of Pinocchio's world Jacobian.
     """
     data = model.createData()
-    q = _reference(model)
+    q = drawn_configuration(model)
     pin.forwardKinematics(model, data, q)
     pin.updateFramePlacements(model, data)
     pin.computeJointJacobians(model, data, q)
