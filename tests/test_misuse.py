@@ -57,7 +57,28 @@ def test_tolerance_refuses_a_passive_joint(capsys):
     status, out, err = _run(capsys, "tolerance", SLIDER_CRANK, "--joint", "pin_A", "--samples", 0)
     assert status == 2 and out == ""
     line = _one_line(err)
-    assert "--joint" in line and "pin_A is not driven" in line and "crank_pivot" in line
+    assert "joint" in line and "pin_A is not driven" in line and "crank_pivot" in line
+
+
+@pytest.mark.parametrize(
+    ("arguments", "argument", "shown"),
+    [
+        ({"joint": "pin_A"}, "joint", "pin_A is not driven"),
+        ({"seed": -1, "samples": 10}, "seed", "an integer >= 0"),
+        ({"positions": 10**9}, "positions", "from 1 to 10000"),
+        ({"samples": 1}, "samples", "from 2 to 1000000"),
+    ],
+)
+def test_the_library_sweep_checks_its_arguments(slider_crank, arguments, argument, shown):
+    """`tolerance.sweep` called from Python refuses what the command refuses, with an
+    ArgumentError naming the argument (before: bands of a passive joint, NumPy's ValueError for a
+    negative seed, an unbounded run)."""
+    from clearance_pin.tolerance import sweep
+
+    with pytest.raises(cp.ArgumentError) as caught:
+        sweep(slider_crank, ["x4=slider.x"], **arguments)
+    assert caught.value.argument == argument
+    assert shown in str(caught.value)
 
 
 @pytest.mark.parametrize(

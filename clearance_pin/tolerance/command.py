@@ -151,7 +151,6 @@ def run(args: argparse.Namespace) -> int:
         check_count("--samples", args.samples, 2, MOST_SAMPLES)
     check_seed("--seed", args.seed)
     mechanism = load(args.model)
-    _check_driven(mechanism, args.joint)
     if not mechanism.dimensions:
         raise ClearancePinError(
             f"{args.model}: no <dimension> element in the <clearance_pin> "
@@ -202,23 +201,6 @@ def run(args: argparse.Namespace) -> int:
         args.json.write_text(json.dumps(_document(args.model, result, maxima, budget), indent=1))
         print(f"JSON written to {args.json}")
     return 0
-
-
-def _check_driven(mechanism: Mechanism, joint: str | None) -> None:
-    """``--joint`` names a driven joint: the sweep moves it and holds it there, which only a
-    drive does (a passive joint's value is the loop's to set; sweeping it gave bands of a
-    mechanism that does not move that way). Unknown names are left to the sweep's message."""
-    if joint is None or joint not in mechanism.joints:
-        return
-    if not getattr(mechanism.joints[joint], "driven", False):
-        driven = [j.name for j in mechanism.tree_joints if j.driven]
-        raise ArgumentError(
-            "--joint",
-            f'a driven joint (driven="true" in its <joint> element; the driven joints are: '
-            f"{', '.join(driven) or '(none)'})",
-            joint,
-            f"{joint} is not driven",
-        )
 
 
 def _range_si(mechanism: Mechanism, args: argparse.Namespace) -> tuple[float, float, float]:

@@ -34,6 +34,8 @@ from .batch_closure import BatchClosure
 from .sensitivity import Output
 from .statistics import monte_carlo_inputs
 
+Distribution = Literal["uniform", "normal"]  # of the toleranced dimensions
+
 if TYPE_CHECKING:
     from ..mechanism import Mechanism
 
@@ -84,7 +86,7 @@ def monte_carlo(
     outputs: Iterable[Output | str],
     q: np.ndarray | None = None,
     samples: int = 100_000,
-    distribution: Literal["uniform", "normal"] = "uniform",
+    distribution: Distribution = "uniform",
     seed: int = 0,
     chunk: int = 1 << 16,
     keep: int = 2000,

@@ -38,13 +38,21 @@ from typing import TYPE_CHECKING, overload
 import numpy as np
 import pinocchio as pin
 
+from ..arguments import MOST_POSITIONS, MOST_SAMPLES, check_count, check_seed
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.clearance import ALPHA, U
 from ..model.dimensions import Dimension
 from ..model.joints import MOTION_COMPONENT_BY_PIN_JOINT
 from ..model.plausibility import LIMIT_SLACK, limits_of
 from ..progress import Progress
-from .monte_carlo import BatchClosure, MonteCarloResult, WorstCase, exact_worst_case, monte_carlo
+from .monte_carlo import (
+    BatchClosure,
+    Distribution,
+    MonteCarloResult,
+    WorstCase,
+    exact_worst_case,
+    monte_carlo,
+)
 from .sensitivity import Output, Sensitivities, parse_output, sensitivities
 
 if TYPE_CHECKING:
@@ -155,12 +163,24 @@ class Sweep:
 
 
 def driven_joint(mechanism: Mechanism, joint: str | None = None) -> int:
-    """Pinocchio id of the joint to sweep: ``joint``, or the mechanism's only driven joint."""
+    """Pinocchio id of the joint to sweep: ``joint``, which must be driven (the sweep moves it and
+    holds it there, which only a drive does), or the mechanism's only driven joint."""
     model = mechanism.model
     if joint is not None:
         if not model.existJointName(joint) or model.getJointId(joint) == 0:
             raise NotFoundError("joint", joint, model.names[1:], mechanism.source)
         joint_id: int = model.getJointId(joint)
+        driven_names = [j.name for j in mechanism.tree_joints if j.driven]
+        if (
+            joint not in driven_names
+        ):  # a passive joint's value is the loop's to set, not the sweep's
+            raise ArgumentError(
+                "joint",
+                f'a driven joint (driven="true" in its <joint> element; the driven joints are: '
+                f"{', '.join(driven_names) or '(none)'})",
+                joint,
+                f"{joint} is not driven",
+            )
     else:
         driven = [j.joint_id for j in mechanism.tree_joints if j.driven]
         if len(driven) != 1:
@@ -280,14 +300,18 @@ def sweep(
         :class:`Sweep`.
 
     Raises:
-        ArgumentError: ``positions < 1``, a range missing (prismatic joint) or not finite, or
+        ArgumentError: ``positions`` outside 1 to ``MOST_POSITIONS``, ``samples`` outside 2 to
+            ``MOST_SAMPLES`` (0: none), a negative ``seed``, a passive ``joint``, a range
+            missing (prismatic joint) or not finite, or
             one that takes the joint out of its URDF limits; a joint of more than 1 DOF.
         NotFoundError: ``joint`` or an output names no joint or frame (the message lists them).
     """
     started = time.perf_counter()
     model = mechanism.model
-    if isinstance(positions, bool) or not isinstance(positions, numbers.Integral) or positions < 1:
-        raise ArgumentError("positions", "an integer >= 1", positions)
+    check_count("positions", positions, 1, MOST_POSITIONS)
+    if samples != 0:  # 0: no Monte Carlo; one sample has no spread
+        check_count("samples", samples, 2, MOST_SAMPLES)
+    check_seed("seed", seed)
     joint_id = driven_joint(mechanism, joint)
     unit = joint_unit(mechanism, joint_id)
     start, stop = _sweep_range(model, joint_id, unit, start, stop, offset)
@@ -317,7 +341,11 @@ def sweep(
         if samples or exact:
             closure = BatchClosure(mechanism, parsed, q, linear=linear)
             if samples:
-                for runs, law in ((uniform, "uniform"), (normal, "normal")):
+                laws: tuple[tuple[list[MonteCarloResult], Distribution], ...] = (
+                    (uniform, "uniform"),
+                    (normal, "normal"),
+                )
+                for runs, law in laws:
                     runs.append(
                         monte_carlo(
                             mechanism,
