@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ArgumentError
+from . import ipopt
 from .kkt import ACCEPT_KKT, ACTIVE_GAP, active_set_solve, residuals
 from .reduction import ReducedProblem
 
@@ -123,7 +124,7 @@ class IpoptBackend:
             "ipopt.max_iter": max_iter,
             "ipopt.mu_strategy": "adaptive",
         }
-        self._solver = ca.nlpsol("clearance_cone", "ipopt", nlp, options)
+        self._solver = ipopt.build("clearance_cone", "ipopt", nlp, options)
         self._lower = np.array(lower, dtype=float)
         self._upper = np.ones(len(shapes))
         self.build_time = time.perf_counter() - started
@@ -134,10 +135,9 @@ class IpoptBackend:
         parameters = np.concatenate(
             [problem.objective, stack.matrix.ravel(order="F"), stack.offset]
         )
-        result = self._solver(
-            x0=np.zeros(problem.size), p=parameters, lbg=self._lower, ubg=self._upper
+        result, stats = ipopt.run(
+            self._solver, x0=np.zeros(problem.size), p=parameters, lbg=self._lower, ubg=self._upper
         )
-        stats = self._solver.stats()
         y = np.asarray(result["x"], dtype=float).ravel()
         lam = np.abs(np.asarray(result["lam_g"], dtype=float).ravel())
         return y, lam, f"ipopt: {stats['return_status']}", int(stats.get("iter_count", 0))

@@ -29,6 +29,7 @@ from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
 from ..numerics import null_space
+from . import ipopt
 from .kkt import ACCEPT_KKT
 from .outputs import output_displacements, resolve_outputs
 from .prepared import linear_setup
@@ -162,7 +163,7 @@ class ExactProblem:
             "ipopt.bound_relax_factor": 0.0,
             "ipopt.mu_strategy": "adaptive",
         }
-        self.solver = ca.nlpsol("clearance_exact", "ipopt", nlp, options)
+        self.solver = ipopt.build("clearance_exact", "ipopt", nlp, options)
         lower = [-ca.inf if s == "norm" else -1.0 for s in self.shapes] + [0.0] * self.n_equality
         upper = [1.0] * len(self.shapes) + [0.0] * self.n_equality
         self.lower, self.upper = np.array(lower), np.array(upper)
@@ -311,8 +312,7 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
         z, lam, parts = polished
         stats = {"return_status": "Newton from the linear solution", "iter_count": 0}
     else:
-        result = exact.solver(x0=z0, p=params, lbg=exact.lower, ubg=exact.upper)
-        stats = dict(exact.solver.stats())
+        result, stats = ipopt.run(exact.solver, x0=z0, p=params, lbg=exact.lower, ubg=exact.upper)
         z = np.asarray(result["x"], dtype=float).ravel()
         lam = np.asarray(result["lam_g"], dtype=float).ravel()
         polished = polish_exact(exact, z, lam, params)
