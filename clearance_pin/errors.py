@@ -144,6 +144,28 @@ class UnboundedLoadError(ClearancePinError):
         return (type(self), (self.motions, self.fraction))
 
 
+class SingularPositionError(UnboundedLoadError):
+    """The mechanism is at a singular position of its loop closure (a toggle or dead centre):
+    the load works along a motion that the parts block only at second order, which the
+    small-displacement model cannot see, so it has no equilibrium there. A subclass of
+    :class:`UnboundedLoadError` (same attributes), named for what it is: not a missing joint.
+    """
+
+    def __init__(self, motions: list[str], fraction: float) -> None:
+        self.motions = motions
+        self.fraction = fraction
+        listed = "; ".join(motions)
+        ClearancePinError.__init__(
+            self,
+            "singular position: the loop closure is singular at this configuration (a toggle or "
+            "dead-centre position), and the load works along a motion that the parts block only "
+            f"at second order ({fraction:.3g} of the load): {listed}. The small-displacement "
+            "model cannot see that: move the driven joints away from it (q) and solve there with "
+            "exact=True (near it the small-displacement answer loses digits as 1 / closure "
+            "conditioning).",
+        )
+
+
 class SolverError(ClearancePinError):
     """The optimiser failed, or its answer failed our own checks.
 

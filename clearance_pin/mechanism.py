@@ -18,6 +18,7 @@ from .arguments import (
     check_solve_many,
 )
 from .equilibrium.cache import SolveCache
+from .equilibrium.negligible_play import rigid_negligible_plays
 from .equilibrium.outputs import resolve_outputs
 from .equilibrium.second_order import estimate_difference
 from .equilibrium.solve import solve_linear
@@ -95,8 +96,9 @@ class Mechanism:
         check_values: bool = True,
     ):
         self.model = model
-        self.tree_joints = tuple(tree_joints)
-        self.loop_joints = tuple(loop_joints)
+        joints = rigid_negligible_plays((*tree_joints, *loop_joints), source=source)
+        self.tree_joints = joints[: len(tree_joints)]
+        self.loop_joints = joints[len(tree_joints) :]
         self.q_nominal = pin.neutral(model) if q_nominal is None else np.array(q_nominal, float)
         self.loads = tuple(loads)
         self.gravity = gravity

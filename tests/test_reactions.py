@@ -24,6 +24,7 @@ from oracle import Oracle, bounded_loads
 import clearance_pin
 from clearance_pin import ClearancePinError, Gravity, PointForce, Torque
 from clearance_pin.equilibrium.poses import clearance_frames
+from clearance_pin.equilibrium.residuals import STATICS_TOLERANCE
 from clearance_pin.errors import NotFoundError
 
 MODELS = sorted((Path(__file__).resolve().parents[1] / "models").glob("*.urdf"))
@@ -161,7 +162,9 @@ def check_joint_frame(equilibrium) -> None:
             a, b = getattr(local, part), getattr(world, part)
             np.testing.assert_allclose(rotation @ a[:3], b[:3], atol=1e-11 * scale)
         np.testing.assert_allclose(
-            local.contact + local.rigid + local.drive, local.wrench, atol=1e-12 * scale * length
+            local.contact + local.rigid + local.drive + local.held,
+            local.wrench,
+            atol=1e-12 * scale * length,
         )
 
 
@@ -331,7 +334,9 @@ RANDOM = settings(
 @given(spec=mechanisms(max_bodies=5))
 def test_random_mechanism_balances_every_body(spec):
     """Random mechanisms of the stability suite (loads cleared of their components along the
-    motions nothing blocks, so that an equilibrium exists), both formulations.
+    motions nothing blocks, so that an equilibrium exists), both formulations: every body balanced
+    to 1e-10 of the load, or (an answer left at the verifier's tolerance) as well as the answer's
+    own statics residual reports.
 
     A load that, at the exact model's solved pose, works along a motion nothing blocks (a torque
     on a part whose free spin axis the play has tilted; up to 2e-3 of the load in drawn cases) has
@@ -350,7 +355,12 @@ def test_random_mechanism_balances_every_body(spec):
             return  # a diagnosis, judged by test_random_mechanisms.py
         imbalance, _ = per_body_imbalance(equilibrium)
         reported = equilibrium.reaction(next(iter(mechanism.joints))).residual
-        assert imbalance <= TOLERANCE, (exact, imbalance, reported, spec.urdf())
+        # an answer the Newton step refines balances to round-off; one IPOPT left at the
+        # verifier's tolerance balances as well as its own statics residual says (the two
+        # measures norm the same imbalance per body and per joint direction: within 2x)
+        statics = equilibrium.residuals["statics"]
+        assert statics <= STATICS_TOLERANCE
+        assert imbalance <= max(TOLERANCE, 2.0 * statics), (exact, imbalance, reported, spec.urdf())
         check_joint_frame(equilibrium)
 
 

@@ -32,7 +32,7 @@ from ..numerics import null_space
 from . import ipopt
 from .kkt import ACCEPT_KKT
 from .outputs import output_displacements, resolve_outputs
-from .prepared import linear_setup
+from .prepared import linear_setup, statics_weights
 from .reactions import frames_at
 from .residuals import STATICS_TOLERANCE, Residuals
 from .result import Contact, Equilibrium
@@ -542,6 +542,23 @@ def _coordinates(linear: Equilibrium, joint) -> np.ndarray:
     return tree_joint_basis(joint).T @ linear.torsors[joint.name]
 
 
+def _statics(mechanism, problem, sigma, gradient, contact_part, held_rows):
+    r"""The statics residual of the exact answer, measured like the linear model's
+    (:meth:`.prepared.PreparedGeometry.statics_residual`): what the loads (``gradient``, the
+    potential's over sigma in the scaled unknowns z) and the contact forces (``contact_part``)
+    leave unbalanced, weighed W / Z (forces and moments in N whatever the joint's play), less
+    what the loops' rigid conditions and the gauge rows hold (``held_rows``; the gauge's share is
+    ``held_by_gauge``), over the larger of the weighed load and the load size."""
+    weights = statics_weights(problem.scale, problem.translational, mechanism.length_scale())
+    factor = weights / problem.scale
+    weighted = factor * (gradient + contact_part)
+    if held_rows.size:
+        rows = (held_rows * factor).T
+        weighted = weighted - rows @ np.linalg.lstsq(rows, weighted, rcond=None)[0]
+    reference = max(float(np.linalg.norm(factor * gradient)), problem.load_size / sigma)
+    return float(np.linalg.norm(weighted) / reference) if reference > 0.0 else 0.0
+
+
 def _assemble(
     mechanism,
     exact: ExactProblem,
@@ -625,7 +642,14 @@ def _assemble(
     violation = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
     residuals = {
         "stationarity": float(np.max(np.abs(held), initial=0.0)),
-        "statics": float(np.linalg.norm(held) / reference),
+        "statics": _statics(
+            mechanism,
+            problem,
+            sigma,
+            scaled_gradient,
+            inequality_jacobian.T @ lam[:n_inequality],
+            jacobian[n_inequality:],
+        ),
         # share of the load only the gauge holds: at the solved pose it works along a motion
         # nothing blocks (a free spin axis the play has tilted)
         "held_by_gauge": float(np.linalg.norm(residual - held) / reference),

@@ -201,6 +201,7 @@ class FastTerms:
             np.ascontiguousarray(terms.slab_force),
             np.ascontiguousarray(terms.reactions),
             np.ascontiguousarray(prepared.geometry.scale),
+            np.ascontiguousarray(terms.statics_weights, dtype=float),
         )
         self.clearance = float(terms.bounds.max(initial=0.0))
         self.accept = acceptance(prepared.geometry.conditioning)

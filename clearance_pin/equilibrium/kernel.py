@@ -846,12 +846,14 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
 @njit
 def answer_arrays(y, multipliers, signs, sigma, scaled_gradient, load_size, x_from_y, torsor_rows,
                   twist_rows, contact_rows, contact_offsets, contact_starts, bounds, row_contact,
-                  norm_force, slab_force, reactions, scale):  # fmt: skip
+                  norm_force, slab_force, reactions, scale, statics_weights):  # fmt: skip
     r"""The answer's arrays (:func:`.linear_answer.assemble_linear`): x = Z Q y, joint torsors,
     body twists, contact gaps [m] and force rows [N]
     (:math:`f = -2\sigma\lambda_j (o_j + S_j x) / c_j^2`, slab :math:`-\sigma\lambda_j s_j / c_j`),
     and (statics residual, largest penetration [m], over the play, largest rotation [rad],
-    potential g^T x [J])."""
+    potential g^T x [J]); the statics residual is
+    :meth:`.prepared.PreparedGeometry.statics_residual` (weights W: forces and moments in N
+    whatever the joint's play)."""
     x = _product(x_from_y, y)
     torsors = _product(torsor_rows, x)
     twists = _product(twist_rows, x)
@@ -876,8 +878,9 @@ def answer_arrays(y, multipliers, signs, sigma, scaled_gradient, load_size, x_fr
         energy += total * x[c]
         for i in range(image.size):
             total -= forces[i] * contact_rows[i, c]
-        imbalance[c] = scale[c] * total
-        reference += scaled_gradient[c] * scaled_gradient[c]
+        imbalance[c] = statics_weights[c] * total
+        weighted = statics_weights[c] * scaled_gradient[c] / scale[c]
+        reference += weighted * weighted
     for k in range(reactions.shape[1]):
         along = 0.0
         for c in range(n):
@@ -924,8 +927,8 @@ FROM_GUESS, FROM_NEIGHBOUR, FROM_CENTRE = 0, 1, 2
 def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matrix, offset,
                 starts, is_norm, y0, lam0, signs0, accept, warm_rounds, rounds, iterations,
                 tolerances, x_from_y, torsor_rows, twist_rows, contact_rows, contact_offsets,
-                bounds, row_contact, norm_force, slab_force, reactions, scale, chain,
-                allow_flat, pool_f, pool_y, pool_lam, pool_signs, pool_state, pooled):  # fmt: skip
+                bounds, row_contact, norm_force, slab_force, reactions, scale, statics_weights,
+                chain, allow_flat, pool_f, pool_y, pool_lam, pool_signs, pool_state, pooled):  # fmt: skip
     """Load cases (rows of ``params``, (N, 3 k)) solved in sequence: objective
     (:func:`load_objective`), the verified optimum (:func:`verified_optimum`) in ``warm_rounds``
     active-set rounds from the guess (y0, lambda0, sides) or, with ``chain``, from the previous
@@ -999,7 +1002,7 @@ def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matri
         x, torsors, twists, gaps, forces, measured = answer_arrays(
             y, lam, signs, sigma, scaled, size, x_from_y, torsor_rows, twist_rows,
             contact_rows, contact_offsets, starts, bounds, row_contact, norm_force, slab_force,
-            reactions, scale,
+            reactions, scale, statics_weights,
         )  # fmt: skip
         out[k, 4], out[k, 5], out[k, 6] = kkt[0], kkt[1], kkt[2]
         for i in range(measured.size):
@@ -1039,6 +1042,6 @@ def warm_up() -> None:
         *arguments, matrix, offset, starts, is_norm, np.array([-1.0, 0.0]), np.array([0.5]),
         np.ones(1), 1e-12, 3, 10, 12, tolerances, np.eye(2), np.ones((6, 2)), np.ones((12, 2)),
         np.eye(2), np.zeros(2), np.ones(1), np.zeros(2, dtype=np.int64), np.ones(2), np.zeros(2),
-        np.zeros((2, 0)), np.ones(2), True, True, np.zeros((1, 2)), np.zeros((1, 2)),
+        np.zeros((2, 0)), np.ones(2), np.ones(2), True, True, np.zeros((1, 2)), np.zeros((1, 2)),
         np.zeros((1, 1)), np.ones((1, 1)), np.zeros(2, dtype=np.int64), True,
     )  # fmt: skip

@@ -221,18 +221,27 @@ class PreparedGeometry:
         return gaps, forces
 
     def statics_residual(self, gradient: np.ndarray, forces: np.ndarray, load_size=0.0):
-        r"""Relative virtual-work residual :math:`\|P_\perp Z (g - \sum_j S_j^T f_j)\| / \|Z g\|`,
-        :math:`P_\perp` removing the rigid reactions of the loop closure (range of :math:`Z E^T`);
-        for one load (g (n,), forces (k,)) or many ((N, n), (N, k), load_size (N,)).
+        r"""Relative statics residual :math:`\|P_\perp W (g - \sum_j S_j^T f_j)\| /
+        \max(\|W g\|, s)`, for one load (g (n,), forces (k,)) or many ((N, n), (N, k),
+        load_size s (N,)).
 
-        The reference is the larger of :math:`\|Z g\|` and ``load_size`` (the whole load on the
-        clearance scale): a load through a pivot leaves a round-off g that is no imbalance."""
-        scale = self.geometry.scale
-        scaled = scale * (gradient - forces @ self.terms.contact_rows)
+        :math:`g - \sum_j S_j^T f_j` is what each unknown's direction leaves unbalanced: for a
+        translation the force [N], for a rotation the moment [N m] that the loads beyond the joint
+        and its contact forces do not balance (the wrench balance of the parts that direction
+        moves); W (:attr:`GeometryTerms.statics_weights`) weighs forces by the play scale c and
+        moments by c / L, so every joint counts in N whatever its own play (the clearance scales
+        Z would weigh a joint of tiny play by that play and hide it); :math:`P_\perp` removes the
+        rigid reactions of the loop closure (range of :math:`W E^T`). The reference is the
+        larger of :math:`\|W g\|` and ``load_size`` (:math:`c \sum_b |F_b| + |M_b| / L` [J],
+        the whole load: a load through a pivot leaves a round-off g that is no imbalance)."""
+        weights = self.terms.statics_weights
+        weighted = weights * (gradient - forces @ self.terms.contact_rows)
         if self.terms.reactions.shape[1]:
-            scaled = scaled - (scaled @ self.terms.reactions) @ self.terms.reactions.T
-        reference = np.maximum(np.sqrt(((scale * gradient) ** 2).sum(axis=-1)), load_size)
-        residual = np.sqrt((scaled * scaled).sum(axis=-1)) / np.where(reference > 0, reference, 1)
+            weighted = weighted - (weighted @ self.terms.reactions) @ self.terms.reactions.T
+        reference = np.maximum(np.sqrt(((weights * gradient) ** 2).sum(axis=-1)), load_size)
+        residual = np.sqrt((weighted * weighted).sum(axis=-1)) / np.where(
+            reference > 0, reference, 1
+        )
         return float(residual) if np.ndim(residual) == 0 else residual
 
     def contact_forces(self, forces: np.ndarray) -> np.ndarray:
@@ -303,7 +312,9 @@ class GeometryTerms:
         contact_of_row, starts, is_norm: the stack's bookkeeping (:class:`~.kkt.StackedContacts`).
         scatter: stacked force rows -> index in the (m, 3) force array.
         norm_force, slab_force: per row, the factors of :meth:`PreparedGeometry.contact_state`.
-        reactions: orthonormal basis (n, k) of the rigid reactions of the closure, range Z E^T.
+        reactions: orthonormal basis (n, k) of the rigid reactions of the closure, range W E^T.
+        statics_weights: W (n,): per unknown, the play scale c for a translation, c / L for a
+            rotation (:meth:`PreparedGeometry.statics_residual`: forces and moments in N alike).
     """
 
     signature: tuple
@@ -323,6 +334,7 @@ class GeometryTerms:
     norm_force: np.ndarray
     slab_force: np.ndarray
     reactions: np.ndarray
+    statics_weights: np.ndarray
 
 
 def geometry_terms(mechanism, geometry: ReducedGeometry) -> GeometryTerms:
@@ -344,6 +356,7 @@ def geometry_terms(mechanism, geometry: ReducedGeometry) -> GeometryTerms:
     row_is_norm = stack.row_is_norm
     play = float(statistics.median(scale.tolist())) if scale.size else 0.0
     length = mechanism.length_scale()
+    weights = statics_weights(scale, geometry.translational, length)
     with cache.lock:
         stack.projection_hints = cache.projection_hints.setdefault(signature, set())
     terms = GeometryTerms(
@@ -367,13 +380,25 @@ def geometry_terms(mechanism, geometry: ReducedGeometry) -> GeometryTerms:
         slab_force=np.where(row_is_norm, 0.0, -1.0 / row_bounds),
         # the rank as numpy.linalg.lstsq decides it: eps * max(n, m) of the largest
         reactions=column_space(
-            geometry.equalities.T * scale[:, None],
+            geometry.equalities.T * weights[:, None],
             np.finfo(float).eps * max(geometry.equalities.shape, default=1),
         ),
+        statics_weights=weights,
     )
     with cache.lock:
         cache.geometry_terms[id(geometry)] = (geometry, terms)
     return terms
+
+
+def statics_weights(scale: np.ndarray, translational, length: float) -> np.ndarray:
+    """W (n,) of :meth:`PreparedGeometry.statics_residual`: per unknown, c for a translation,
+    c / L for a rotation (c: the median of the clearance scales ``scale``, the play scale of the
+    load size; 1 without unknowns), ``translational`` (n,) bool (None: all translations)."""
+    c = float(statistics.median(scale.tolist())) if scale.size else 0.0
+    c = c if c > 0.0 else 1.0
+    if translational is None:
+        translational = np.ones(scale.size, dtype=bool)
+    return np.where(translational, c, c / max(length, 1e-300))
 
 
 def prepared_geometry(mechanism, q=None) -> PreparedGeometry:

@@ -105,6 +105,7 @@ class ReducedProblem:
     conditioning: float = 1.0
     load_size: float = 0.0
     unblocked_share: float = 0.0
+    translational: np.ndarray | None = None  # per unknown: a translation [m] (else a rotation)
 
     @property
     def size(self) -> int:
@@ -137,6 +138,7 @@ class ReducedGeometry:
     contact_matrices: tuple[np.ndarray, ...]
     stack: StackedContacts
     conditioning: float = 1.0
+    translational: np.ndarray | None = None  # per unknown: a translation [m] (else a rotation)
 
 
 def _split_rows(rows: np.ndarray, dimension: int, rtol: float = 1e-10):
@@ -356,6 +358,7 @@ def reduce_geometry(
         matrices,
         stack,
         conditioning,
+        translational_unknowns(maps),
     )
 
 
@@ -426,6 +429,7 @@ def loaded_problem(
         geometry.conditioning,
         float(load_size),
         float(unblocked_share),
+        geometry.translational,
     )
 
 
@@ -460,7 +464,9 @@ def _normalised_equalities(maps, equalities: np.ndarray, names: list[str], scale
     """
     if not names:
         return equalities * scale
-    sizes = {name: float(np.abs(maps.joint_torsor[name] * scale).max()) for name in set(names)}
+    sizes = {
+        name: float(np.abs(maps.joint_torsor[name] * scale).max(initial=0.0)) for name in set(names)
+    }
     divisors = np.array([sizes[name] or 1.0 for name in names])
     return equalities * scale / divisors[:, None]
 
@@ -470,9 +476,14 @@ def _variable_scales(maps, joints, contacts, length_scale: float) -> np.ndarray:
     bounds = [c.contact.bound for c in contacts]
     reference = float(statistics.median(bounds)) if bounds else 1.0
     plays = np.array([joints[name].clearance.max_play or reference for name in maps.variable_joint])
+    return np.where(translational_unknowns(maps), plays, reference / length_scale)
+
+
+def translational_unknowns(maps: SmallDisplacementMaps) -> np.ndarray:
+    """Per unknown, True when it is a translation [m] (its basis direction moves more than it
+    turns), False for a rotation [rad]."""
     basis = np.array(maps.variable_basis).reshape(-1, 6)
-    translational = np.abs(basis[:, :3]).sum(axis=1) >= np.abs(basis[:, 3:]).sum(axis=1)
-    return np.where(translational, plays, reference / length_scale)
+    return np.abs(basis[:, :3]).sum(axis=1) >= np.abs(basis[:, 3:]).sum(axis=1)
 
 
 def describe_motion(

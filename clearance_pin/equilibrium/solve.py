@@ -13,17 +13,29 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
+import pinocchio as pin
 
-from ..errors import ConditioningWarning, SolverError
+from ..errors import (
+    ClearancePinError,
+    ConditioningWarning,
+    SingularPositionError,
+    SolverError,
+    UnboundedLoadError,
+)
+from ..numerics import norm
 from .block_verify import closed_form_answer
 from .blocks import block_structure
 from .cone_solver import WarmBet, backend_for, solve_cone
 from .fast_path import BoundLoads, FastTerms, fast_terms, resolve_compiled, solve_compiled
 from .linear_answer import assemble_linear
 from .prepared import PreparedGeometry, prepared_geometry
+from .reduction import reduce_geometry
 from .result import Equilibrium
+from .small_displacement import build_maps
 
 CONDITIONING_WARNING = 1e-6
+SINGULAR_PROBE = 1e-6  # [rad or m] how far the singular-position test looks
+UNPOLISHED_KKT = 1e-9  # KKT residuals an answer the Newton polish left must meet to be returned
 FINITE_ROTATION = 1e-2  # [rad] a linear answer turning a joint more than this is not small
 
 
@@ -55,7 +67,12 @@ def solve_linear(
                            output_points)  # fmt: skip
         if answer is not None:
             return answer
-    problem = prepared.problem(loads)
+    try:
+        problem = prepared.problem(loads)
+    except UnboundedLoadError as error:
+        if mechanism.loop_joints and _singular_position(mechanism, prepared):
+            raise SingularPositionError(error.motions, error.fraction) from error
+        raise
     count = len(problem.contacts)
     if not (np.isfinite(problem.objective_scale) and np.isfinite(problem.objective).all()):
         raise SolverError(
@@ -139,6 +156,15 @@ def solve_linear(
         output_points,
     )
     _warn_if_inaccurate(mechanism, equilibrium, problem.conditioning)
+    if equilibrium.ok and not solution.polished and _kkt_certified(equilibrium):
+        # the polish did not converge, but the answer is an equilibrium by every measured
+        # residual: returned, saying so (polished=False)
+        return replace(
+            equilibrium,
+            solver_status=f"{solution.status}; answered by {built.name} without the Newton "
+            "polish, its residuals verified (statics, penetration, KKT to "
+            f"{UNPOLISHED_KKT:g})",
+        )
     if not equilibrium.ok or not solution.polished:
         raise SolverError(
             "the small-displacement solve did not reach a verified optimum",
@@ -147,6 +173,36 @@ def solve_linear(
             equilibrium,
         )
     return equilibrium
+
+
+def _singular_position(mechanism, prepared: PreparedGeometry) -> bool:
+    """True when the motions nothing blocks at the configuration of ``prepared`` are fewer at a
+    configuration 1e-6 [rad or m] away in a fixed random direction: they exist only at this
+    configuration (a toggle or dead centre of the loop closure: blocked at second order), not
+    as a motion of the mechanism (a free spin stays free nearby)."""
+    model = mechanism.model
+    step = np.random.default_rng(0).standard_normal(model.nv)
+    nearby = pin.integrate(model, prepared.configuration.q, SINGULAR_PROBE * step / norm(step))
+    try:
+        configuration = mechanism.configure(nearby)
+        data = model.createData()
+        pin.framesForwardKinematics(model, data, configuration.q)
+        maps = build_maps(model, data, mechanism.tree_joints, mechanism.loop_joints, configuration)
+        there = reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
+    except (ClearancePinError, ValueError, np.linalg.LinAlgError):
+        return False  # undecided: the general diagnosis stands
+    return there.free_motions.shape[1] < prepared.geometry.free_motions.shape[1]
+
+
+def _kkt_certified(equilibrium: Equilibrium) -> bool:
+    """An unpolished answer's KKT residuals (stationarity, complementarity: a force only where a
+    contact touches) within :data:`UNPOLISHED_KKT`; its statics, penetration and dual
+    feasibility are :attr:`Equilibrium.ok`'s."""
+    residuals = equilibrium.residuals
+    return all(
+        (residuals.get(name) or 0.0) <= UNPOLISHED_KKT
+        for name in ("stationarity", "complementarity", "feasibility")
+    )
 
 
 def _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, started, output_points):
