@@ -9,7 +9,7 @@ In the reduced programme of :mod:`.reduction` (y = Q^T x / Z, images :math:`v = 
   :math:`|\lambda_j \phi_j|`, dual infeasibility :math:`\max(-\lambda_j, 0)`, all at most the
   single solve's acceptance (:func:`.cone_solver.acceptance`), multipliers >= -1e-12 and every
   contact within 1e-13 of its set;
-- statics in x (:meth:`.prepared.PreparedGeometry.statics_residual`) of the contact forces
+- statics in N (:meth:`.prepared.PreparedGeometry.statics_residual`) of the contact forces
   :math:`f_j = -2\sigma\lambda_j (o_j + S_j x)/c_j^2` (ball, disc) or
   :math:`-\sigma\lambda_j s_j / c_j` (slab) [N], at most 1e-8, and penetration at most 1e-9 of
   the play (:class:`.residuals.Tolerances`).

@@ -1,8 +1,9 @@
 """The small-displacement answer: an :class:`~.result.Equilibrium` assembled from a reduced solution.
 
 Torsors, body twists, contact gaps and forces come from the stacked maps of the prepared geometry;
-the residuals the answer carries are measured here, not taken from the solver: statics (virtual
-work of the loads and the contact forces), penetration, closure conditioning, largest rotation.
+the residuals the answer carries are measured here, not taken from the solver: statics (the
+wrench balance of the loads and the contact forces in N, per joint direction), penetration,
+closure conditioning, largest rotation.
 Used by a single solve (:mod:`.solve`) and by the batched Newton (:mod:`.batch`).
 """
 

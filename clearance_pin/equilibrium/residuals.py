@@ -4,8 +4,10 @@ A solver's status is no proof. Every answer is checked on the quantities of its 
 
 - KKT (dimensionless, on the clearance-scaled problem): ``stationarity``, ``feasibility``,
   ``complementarity``, ``dual_infeasibility`` (a contact pulling);
-- ``statics``: the virtual-work residual of the loads and the reported contact forces (the
-  contact forces balance the load), relative to the load;
+- ``statics``: what the loads and the reported contact forces leave unbalanced in every joint
+  direction, forces [N] and moments over the length scale [N m / L] alike whatever the joint's
+  play, relative to the load (:meth:`.prepared.PreparedGeometry.statics_residual`; the compiled
+  kernel and the exact model measure the same);
 - ``max_violation_m`` [m] and ``max_violation_rel`` (penetration, absolute and over the play) and
   ``clearance_m`` [m] (the largest play, the scale of the closure test);
 - small-displacement model: ``closure_conditioning`` (how close the loops are to a toggle
@@ -43,7 +45,7 @@ class Tolerances:
 
     Attributes:
         feasibility: largest penetration over the play (dimensionless).
-        statics: largest relative virtual-work residual (dimensionless).
+        statics: largest relative statics residual (dimensionless).
         dual: largest pulling multiplier (dimensionless).
         closure: largest loop equation over the largest play (exact model; dimensionless).
     """
