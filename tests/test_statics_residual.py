@@ -145,3 +145,37 @@ def test_verified_answer_without_polish_is_returned():
     loads = mechanism.resolve_loads(None, None)
     oracle = Oracle(mechanism)
     assert compare(eq, oracle, oracle.solve(loads), loads)["energy"] <= 1e-7
+
+
+def test_compiled_kernel_measures_the_same_statics():
+    """The compiled kernel's statics residual is the NumPy one
+    (:meth:`PreparedGeometry.statics_residual`) on the same answer arrays, balanced or not: I1
+    at 3e-12 m diametral clearance, its contact's multiplier zeroed reads above 0.5 in both,
+    and both agree to 1e-12."""
+    from clearance_pin.equilibrium.fast_path import FastTerms, load_kernel
+
+    load_kernel()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SuspectValueWarning)
+        mechanism = clearance_pin.loads(two_spheres("3e-12"))
+    mechanism.solve(warm_start=False)
+    prepared = prepared_geometry(mechanism)
+    problem = prepared.problem(mechanism.resolve_loads(None, None))
+    solution = mechanism.cache.warm[prepared.signature]
+    fast = FastTerms(prepared)
+    i1 = [c.joint == "I1" for c in prepared.geometry.contacts]
+    for multipliers in (solution.multipliers, np.where(i1, 0.0, solution.multipliers)):
+        *_, forces, measured = fast.kernel.answer_arrays(
+            solution.y,
+            multipliers,
+            solution.signs,
+            problem.objective_scale,
+            problem.gradient * prepared.geometry.scale,
+            problem.load_size,
+            *fast.answer[:5],
+            fast.cone[2],
+            *fast.answer[5:],
+        )
+        expected = prepared.statics_residual(problem.gradient, forces, problem.load_size)
+        assert measured[0] == pytest.approx(expected, rel=1e-12, abs=1e-15)
+    assert measured[0] > 0.5
