@@ -129,6 +129,14 @@ def solve_linear(
             second.status = f"{solution.status}, unverified; then {second.status}"
             solution, built, built_now = second, fallback, fallback_built
     flat_notes: Sequence[str] = ()
+    unique = False  # an unpolished answer is returned only when its optimum is unique
+    if (
+        not solution.polished
+        and np.isfinite(solution.y).all()
+        and np.isfinite(solution.multipliers).all()
+    ):
+        flat, _ = prepared.flat_directions(solution.y, solution.multipliers, solution.signs)
+        unique = flat.shape[1] == 0
     if solution.polished:
         cache.warm[prepared.signature] = solution
         flat, flat_notes = prepared.flat_directions(
@@ -156,9 +164,9 @@ def solve_linear(
         output_points,
     )
     _warn_if_inaccurate(mechanism, equilibrium, problem.conditioning)
-    if equilibrium.ok and not solution.polished and _kkt_certified(equilibrium):
+    if unique and equilibrium.ok and _kkt_certified(equilibrium):
         # the polish did not converge, but the answer is an equilibrium by every measured
-        # residual: returned, saying so (polished=False)
+        # residual, and the only one (no flat direction to centre): returned, saying so
         return replace(
             equilibrium,
             solver_status=f"{solution.status}; answered by {built.name} without the Newton "
