@@ -129,23 +129,22 @@ def solve_linear(
             second.status = f"{solution.status}, unverified; then {second.status}"
             solution, built, built_now = second, fallback, fallback_built
     flat_notes: Sequence[str] = ()
-    unique = False  # an unpolished answer is returned only when its optimum is unique
-    if (
-        not solution.polished
-        and np.isfinite(solution.y).all()
-        and np.isfinite(solution.multipliers).all()
-    ):
-        flat, _ = prepared.flat_directions(solution.y, solution.multipliers, solution.signs)
-        unique = flat.shape[1] == 0
-    if solution.polished:
-        cache.warm[prepared.signature] = solution
+    # an unpolished answer may be returned (below) when it is the minimum-norm optimum: no flat
+    # direction, or centred along them like a polished one
+    minimum_norm = False
+    finite = np.isfinite(solution.y).all() and np.isfinite(solution.multipliers).all()
+    if solution.polished or finite:
+        if solution.polished:
+            cache.warm[prepared.signature] = solution
         flat, flat_notes = prepared.flat_directions(
             solution.y, solution.multipliers, solution.signs
         )
+        minimum_norm = not flat.shape[1]
         if flat.shape[1]:
             centred = solution.y - flat @ (flat.T @ solution.y)
             if np.max(problem.stack.values(centred, None), initial=0.0) <= 1e-13:
                 solution.y = centred
+                minimum_norm = True
     equilibrium = assemble_linear(
         prepared,
         problem,
@@ -164,9 +163,9 @@ def solve_linear(
         output_points,
     )
     _warn_if_inaccurate(mechanism, equilibrium, problem.conditioning)
-    if unique and equilibrium.ok and _kkt_certified(equilibrium):
-        # the polish did not converge, but the answer is an equilibrium by every measured
-        # residual, and the only one (no flat direction to centre): returned, saying so
+    if not solution.polished and minimum_norm and equilibrium.ok and _kkt_certified(equilibrium):
+        # the polish did not converge, but the answer is the minimum-norm equilibrium by every
+        # measured residual: returned, saying so
         return replace(
             equilibrium,
             solver_status=f"{solution.status}; answered by {built.name} without the Newton "
