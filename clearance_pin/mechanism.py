@@ -96,9 +96,7 @@ class Mechanism:
         check_values: bool = True,
     ):
         self.model = model
-        joints = rigid_negligible_plays((*tree_joints, *loop_joints), source=source)
-        self.tree_joints = joints[: len(tree_joints)]
-        self.loop_joints = joints[len(tree_joints) :]
+        self._set_joints(tuple(tree_joints), tuple(loop_joints), source)
         self.q_nominal = pin.neutral(model) if q_nominal is None else np.array(q_nominal, float)
         self.loads = tuple(loads)
         self.gravity = gravity
@@ -110,13 +108,13 @@ class Mechanism:
         self.link_frames = {
             f.name: i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY
         }
-        self.joints: dict[str, TreeJoint | LoopJoint] = {j.name: j for j in self.tree_joints}
-        self.joints.update({j.name: j for j in self.loop_joints})
-        if len(self.joints) != len(self.tree_joints) + len(self.loop_joints):
-            raise ModelError(source, "<joints>", "joint names must be unique across tree and loops")
         self.cache = SolveCache(model)
         if check_values:  # unit mistakes warned before the loops are closed (which they may break)
             check_clearance_sizes(self)  # refused, not warned: the solver cannot carry them
+        # after that check: a play many times the mechanism would make every other play negligible
+        joints = rigid_negligible_plays((*self.tree_joints, *self.loop_joints), source=source)
+        self._set_joints(joints[: len(tree_joints)], joints[len(tree_joints) :], source)
+        if check_values:
             given = nominal_given
             if given is None:
                 given = plausibility.configuration_values(model, self.q_nominal)
@@ -126,6 +124,17 @@ class Mechanism:
         if self.loop_joints:  # closed now: a mechanism is complete, errors come at construction
             self.q_nominal = self.configure().q
             self._nominal_closed = self.q_nominal.copy()
+
+    def _set_joints(
+        self, tree_joints: tuple[TreeJoint, ...], loop_joints: tuple[LoopJoint, ...], source: str
+    ) -> None:
+        """Set the joints (``tree_joints``, ``loop_joints``, ``joints`` by name); names unique."""
+        self.tree_joints, self.loop_joints = tree_joints, loop_joints
+        self.joints: dict[str, TreeJoint | LoopJoint] = {j.name: j for j in tree_joints}
+        self.joints.update({j.name: j for j in loop_joints})
+        if len(self.joints) != len(tree_joints) + len(loop_joints):
+            raise ModelError(source, "<joints>", "joint names must be unique across tree and loops")
+        self.__dict__.pop("_length_scale", None)  # it reads the joints' lengths
 
     def with_model(self, model: pin.Model) -> Mechanism:
         """The same mechanism on another ``pin.Model`` of the same tree (a manufactured one:

@@ -186,3 +186,20 @@ def assert_torsors_close(actual: dict, expected: dict, rtol: float, length: floa
         a, e = np.asarray(actual[name]), np.asarray(value)
         assert np.linalg.norm(a[:3] - e[:3]) <= rtol * scale_t, (name, a, e)
         assert np.linalg.norm(a[3:] - e[3:]) <= rtol * scale_r, (name, a, e)
+
+
+def run_command(capsys, *argv: object) -> tuple[int, str, str]:
+    """(exit status, stdout, stderr) of ``clearance-pin ARGV``, run in this process."""
+    from clearance_pin.cli import main
+
+    status = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def one_line(err: str) -> str:
+    """The single line the command writes on stderr for a refused input."""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("clearance-pin: "), err
+    return lines[0]

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import MODELS
+from conftest import MODELS, one_line, run_command
 
 import clearance_pin as cp
 from clearance_pin.cli import main
@@ -26,21 +26,6 @@ from clearance_pin.mechanism import Mechanism
 
 PENDULUM = MODELS / "double_pendulum.urdf"
 SHOULDER_DRIVE = ' driven="true" q="0.5235987755982988"'
-
-
-def _run(capsys, *argv: str) -> tuple[int, str, str]:
-    """(exit status, stdout, stderr) of ``clearance-pin ARGV``."""
-    status = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return status, out, err
-
-
-def _one_line(err: str) -> str:
-    """The single line the command writes on stderr for a refused input."""
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("clearance-pin: "), err
-    return lines[0]
 
 
 def _pendulum_variant(tmp_path: Path, name: str, old: str, new: str) -> Path:
@@ -54,7 +39,7 @@ def _pendulum_variant(tmp_path: Path, name: str, old: str, new: str) -> Path:
 
 # -- solve ----------------------------------------------------------------------------------------
 def test_solve_prints_the_table_and_exits_0(capsys):
-    status, out, err = _run(capsys, "solve", MODELS / "four_bar.urdf")
+    status, out, err = run_command(capsys, "solve", MODELS / "four_bar.urdf")
     assert status == 0 and err == ""
     assert f"from {MODELS / 'four_bar.urdf'}" in out.splitlines()[0]
     for joint in cp.load(MODELS / "four_bar.urdf").joints:
@@ -65,7 +50,7 @@ def test_solve_json_is_the_library_answer(capsys):
     """--exact --json prints the exact answer and its linear seed, as Mechanism.solve gives them;
     the contacts are the README's (ball, and the journal's right end on the bore)."""
     path = MODELS / "younes_sphere_cylinder.urdf"
-    status, out, err = _run(capsys, "solve", path, "--exact", "--json")
+    status, out, err = run_command(capsys, "solve", path, "--exact", "--json")
     assert status == 0 and err == ""
     document = json.loads(out)
     assert document["model"] == str(path)
@@ -90,7 +75,7 @@ def test_gravity_option_overrides_the_model(capsys):
     answers = {"on": mechanism.solve(), "off": mechanism.solve(gravity=False)}
     printed = {}
     for setting, answer in answers.items():
-        status, out, _ = _run(capsys, "solve", path, "--json", "--gravity", setting)
+        status, out, _ = run_command(capsys, "solve", path, "--json", "--gravity", setting)
         assert status == 0
         printed[setting] = json.loads(out)["equilibrium"]["torsors"]
         for joint, torsor in printed[setting].items():
@@ -106,16 +91,16 @@ def test_check_measures_the_exact_pose_and_reports_the_linear_departure(capsys):
     the real boundaries (exit 0), and reports the linear pose's departure from them (second order,
     README) as information, not as a failure; the JSON carries both."""
     path = MODELS / "four_bar.urdf"
-    status, out, err = _run(capsys, "solve", path, "--check")
+    status, out, err = run_command(capsys, "solve", path, "--check")
     assert status == 0 and err == ""
     assert "coal check of the exact pose: ok" in out and "FAIL" not in out
     assert "departs from the real boundaries by up to" in out and "not a failure" in out
-    status, out, err = _run(capsys, "solve", path, "--check", "--json")
+    status, out, err = run_command(capsys, "solve", path, "--check", "--json")
     document = json.loads(out)
     assert status == 0 and document["check"]["ok"] is True
     assert document["check"]["formulation"] == "exact"
     assert document["linear_departure"]["ok"] is False  # off the boundary at second order
-    status, out, err = _run(capsys, "solve", path, "--check", "--exact")
+    status, out, err = run_command(capsys, "solve", path, "--check", "--exact")
     assert status == 0 and err == ""
     assert "FAIL" not in out and "departs" not in out
     assert out.index("equilibrium (linear model)") < out.index("equilibrium (exact model)")
@@ -127,17 +112,21 @@ def test_a_failing_check_exits_1(monkeypatch, capsys):
     from clearance_pin.check import report
 
     monkeypatch.setattr(report.CheckReport, "ok", property(lambda self: False))
-    status, _, err = _run(capsys, "solve", MODELS / "four_bar.urdf", "--check", "--exact")
+    status, _, err = run_command(capsys, "solve", MODELS / "four_bar.urdf", "--check", "--exact")
     assert status == 1
-    assert "coal check out of tolerance" in _one_line(err)
+    assert "coal check out of tolerance" in one_line(err)
 
 
 def test_output_frames_are_reported(capsys):
     """--output FRAME reports that frame's world displacement (table and JSON), with the exact -
     linear difference when both formulations run."""
-    status, out, _ = _run(capsys, "solve", MODELS / "arm_6r.urdf", "--exact", "--output", "wrist_2")
+    status, out, _ = run_command(
+        capsys, "solve", MODELS / "arm_6r.urdf", "--exact", "--output", "wrist_2"
+    )
     assert status == 0 and "wrist_2" in out and "exact - linear [um]" in out
-    status, out, _ = _run(capsys, "solve", MODELS / "arm_6r.urdf", "--output", "wrist_2", "--json")
+    status, out, _ = run_command(
+        capsys, "solve", MODELS / "arm_6r.urdf", "--output", "wrist_2", "--json"
+    )
     assert "wrist_2" in json.loads(out)["equilibrium"]["outputs"]
 
 
@@ -147,7 +136,7 @@ def test_warnings_are_one_line(tmp_path, capsys):
     text = (MODELS / "four_bar.urdf").read_text()
     model = tmp_path / "four_bar_mm.urdf"
     model.write_text(text.replace('radial_clearance="5e-05"', 'radial_clearance="0.05"'))
-    _, _, err = _run(capsys, "solve", model)
+    _, _, err = run_command(capsys, "solve", model)
     warned = [line for line in err.splitlines() if "SuspectValueWarning" in line]
     assert len(warned) == 4 and all(line.startswith("clearance-pin: warning") for line in warned)
     assert "crank_pivot" in warned[0] and "warnings.warn" not in err
@@ -169,9 +158,9 @@ def test_residuals_out_of_tolerance_exit_1(monkeypatch, capsys):
 
     monkeypatch.setattr(Mechanism, "solve", lambda self, **kw: Unverified(solve(self, **kw)))
     path = MODELS / "four_bar.urdf"
-    status, out, err = _run(capsys, "solve", path)
+    status, out, err = run_command(capsys, "solve", path)
     assert status == 1 and f"from {path}" in out
-    assert _one_line(err) == f"clearance-pin: {path}: residuals out of tolerance"
+    assert one_line(err) == f"clearance-pin: {path}: residuals out of tolerance"
 
 
 # -- refused inputs -------------------------------------------------------------------------------
@@ -182,27 +171,27 @@ def test_bad_model_exits_2_with_one_line_naming_file_element_problem(tmp_path, c
         '<joint name="elbow" type="planar_revolute"',
         '<joint name="elbo" type="planar_revolute"',
     )
-    status, out, err = _run(capsys, "solve", path)
+    status, out, err = run_command(capsys, "solve", path)
     assert status == 2 and out == ""
-    line = _one_line(err)
+    line = one_line(err)
     assert line.startswith(f"clearance-pin: {path}: <joint name='elbo'>: ")
     assert "no URDF joint is called 'elbo'" in line and "shoulder, elbow, tip_mount" in line
 
 
 def test_missing_file_exits_2(tmp_path, capsys):
     path = tmp_path / "nowhere.urdf"
-    status, _, err = _run(capsys, "solve", path)
+    status, _, err = run_command(capsys, "solve", path)
     assert status == 2
-    line = _one_line(err)
+    line = one_line(err)
     assert str(path) in line and "cannot be read" in line
 
 
 def test_unbounded_load_exits_3_naming_the_motion(tmp_path, capsys):
     """The pendulum with its shoulder no longer driven: the tip load turns it freely."""
     path = _pendulum_variant(tmp_path, "free_shoulder.urdf", SHOULDER_DRIVE, "")
-    status, out, err = _run(capsys, "solve", path)
+    status, out, err = run_command(capsys, "solve", path)
     assert status == 3 and out == ""
-    line = _one_line(err)
+    line = one_line(err)
     assert str(path) in line and "no equilibrium" in line
     assert "joint 'shoulder' alpha" in line
 
@@ -216,9 +205,9 @@ def test_solver_failure_exits_4_with_its_residuals(monkeypatch, capsys):
 
     monkeypatch.setattr(Mechanism, "solve", failing_solve)
     path = MODELS / "four_bar.urdf"
-    status, out, err = _run(capsys, "solve", path)
+    status, out, err = run_command(capsys, "solve", path)
     assert status == 4 and out == ""
-    line = _one_line(err)
+    line = one_line(err)
     assert str(path) in line and "did not reach a verified answer" in line
     assert "max_iter" in line and "kkt_stationarity=0.00035" in line
 
@@ -246,7 +235,7 @@ def test_tolerance_bands_are_flores_closed_form(tmp_path, capsys):
     is the sum of those coefficients' magnitudes times the half tolerances (IT9: 130 um at
     300 mm, 115 um at 200 mm; 1e-3 rad)."""
     report = tmp_path / "bands.json"
-    status, out, err = _run(
+    status, out, err = run_command(
         capsys,
         "tolerance",
         PENDULUM,
@@ -278,19 +267,19 @@ def test_tolerance_bands_are_flores_closed_form(tmp_path, capsys):
 
 
 def test_tolerance_unknown_output_exits_2_listing_the_frames(capsys):
-    status, _, err = _run(
+    status, _, err = run_command(
         capsys, "tolerance", PENDULUM, "--joint", "shoulder", "--output", "hand.x"
     )
     assert status == 2
-    line = _one_line(err)
+    line = one_line(err)
     assert str(PENDULUM) in line and "unknown frame 'hand'" in line
     assert "link1" in line and "tip" in line
 
 
 def test_tolerance_without_dimensions_exits_2(capsys):
-    status, _, err = _run(capsys, "tolerance", MODELS / "four_bar.urdf")
+    status, _, err = run_command(capsys, "tolerance", MODELS / "four_bar.urdf")
     assert status == 2
-    assert "no <dimension> element" in _one_line(err)
+    assert "no <dimension> element" in one_line(err)
 
 
 # -- the installed entry point --------------------------------------------------------------------
@@ -315,7 +304,7 @@ def test_envelope_sub_command(tmp_path, capsys):
     them; the four-bar rocker's pivot frame moves at most its own pin's play, 50 um (closed form:
     the frame origin is the pivot's centre), and Mechanism.envelope gives the same answer."""
     written = tmp_path / "envelope.json"
-    status, out, _ = _run(
+    status, out, _ = run_command(
         capsys, "envelope", MODELS / "four_bar.urdf", "--output", "rocker", "--json", written
     )
     assert status == 0 and "translation" in out and written.stat().st_size > 0
@@ -327,7 +316,7 @@ def test_solve_plot_draws_the_settled_pose(tmp_path, capsys):
     """`solve MODEL --plot FILE.png` writes the settled-pose picture (the plot extra)."""
     pytest.importorskip("matplotlib")
     picture = tmp_path / "four_bar.png"
-    status, out, _ = _run(capsys, "solve", MODELS / "four_bar.urdf", "--plot", picture)
+    status, out, _ = run_command(capsys, "solve", MODELS / "four_bar.urdf", "--plot", picture)
     assert status == 0 and f"drawn in {picture}" in out
     assert picture.stat().st_size > 10_000
 
@@ -339,8 +328,8 @@ def test_clearances_beside_an_unmodified_urdf(tmp_path, capsys):
     start, end = text.index("<clearance_pin>"), text.index("</clearance_pin>")
     (tmp_path / "four_bar.urdf").write_text(text[:start] + text[end + len("</clearance_pin>") :])
     (tmp_path / "play.xml").write_text(text[start : end + len("</clearance_pin>")])
-    _, with_block, _ = _run(capsys, "solve", MODELS / "four_bar.urdf", "--json")
-    status, beside, _ = _run(
+    _, with_block, _ = run_command(capsys, "solve", MODELS / "four_bar.urdf", "--json")
+    status, beside, _ = run_command(
         capsys, "solve", tmp_path / "four_bar.urdf", "--clearances", tmp_path / "play.xml", "--json"
     )
     assert status == 0

@@ -20,10 +20,9 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
-from conftest import MODELS, ROOT
+from conftest import MODELS, ROOT, one_line, run_command
 
 import clearance_pin as cp
-from clearance_pin.cli import main
 from clearance_pin.kinematics import closure
 from clearance_pin.tolerance import command as tolerance_command
 
@@ -35,28 +34,15 @@ def slider_crank():
     return cp.load(SLIDER_CRANK)
 
 
-def _run(capsys, *argv: object) -> tuple[int, str, str]:
-    """(exit status, stdout, stderr) of ``clearance-pin ARGV``."""
-    status = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return status, out, err
-
-
-def _one_line(err: str) -> str:
-    """The single line the command writes on stderr for a refused input."""
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("clearance-pin: "), err
-    return lines[0]
-
-
 # -- the command: one line, exit 2 ----------------------------------------------------------------
 def test_tolerance_refuses_a_passive_joint(capsys):
     """`tolerance --joint pin_A` on the slider-crank: pin_A is passive (the loop sets it), so
     sweeping it is refused with exit 2 naming it; it printed bands and exited 0 before."""
-    status, out, err = _run(capsys, "tolerance", SLIDER_CRANK, "--joint", "pin_A", "--samples", 0)
+    status, out, err = run_command(
+        capsys, "tolerance", SLIDER_CRANK, "--joint", "pin_A", "--samples", 0
+    )
     assert status == 2 and out == ""
-    line = _one_line(err)
+    line = one_line(err)
     assert "joint" in line and "pin_A is not driven" in line and "crank_pivot" in line
 
 
@@ -99,9 +85,9 @@ def test_tolerance_counts_and_seed_are_bounded(capsys, monkeypatch, option, valu
         raise AssertionError("the sweep started")
 
     monkeypatch.setattr(tolerance_command, "sweep", no_sweep)
-    status, out, err = _run(capsys, "tolerance", SLIDER_CRANK, option, value)
+    status, out, err = run_command(capsys, "tolerance", SLIDER_CRANK, option, value)
     assert status == 2 and out == ""
-    line = _one_line(err)
+    line = one_line(err)
     assert option in line and shown in line
 
 
@@ -109,9 +95,9 @@ def test_tolerance_counts_and_seed_are_bounded(capsys, monkeypatch, option, valu
 def test_unknown_plot_type_is_refused_before_any_work(tmp_path, capsys, command):
     """--plot x.abc: matplotlib's traceback (exit 1) after the whole computation before; now
     exit 2, one line listing the file types, and nothing computed (no table on stdout)."""
-    status, out, err = _run(capsys, command, SLIDER_CRANK, "--plot", tmp_path / "bands.abc")
+    status, out, err = run_command(capsys, command, SLIDER_CRANK, "--plot", tmp_path / "bands.abc")
     assert status == 2 and out == ""
-    line = _one_line(err)
+    line = one_line(err)
     assert "--plot" in line and "bands.abc" in line and ".png" in line
 
 
@@ -120,9 +106,9 @@ def test_json_into_a_missing_folder_is_refused_before_any_work(tmp_path, capsys,
     """--json missing/x.json: a FileNotFoundError traceback (exit 1) after the computation
     before; now exit 2, one line naming the folder."""
     target = tmp_path / "missing" / "x.json"
-    status, out, err = _run(capsys, command, SLIDER_CRANK, "--json", target)
+    status, out, err = run_command(capsys, command, SLIDER_CRANK, "--json", target)
     assert status == 2 and out == ""
-    line = _one_line(err)
+    line = one_line(err)
     assert "--json" in line and f"no folder {target.parent}" in line
 
 
@@ -136,11 +122,11 @@ def test_a_file_that_cannot_be_written_is_one_line(tmp_path, capsys, monkeypatch
 
     monkeypatch.setattr(Path, "write_text", full)
     target = tmp_path / "bands.json"
-    status, _, err = _run(
+    status, _, err = run_command(
         capsys, "tolerance", SLIDER_CRANK, "--positions", 1, "--samples", 0, "--json", target
     )
     assert status == 2
-    line = _one_line(err)
+    line = one_line(err)
     assert str(target) in line and "No space left on device" in line
 
 
@@ -152,9 +138,9 @@ def test_a_clearance_of_1e308_is_exit_2_naming_the_joint(tmp_path, capsys):
     assert old in text
     path = tmp_path / "huge.urdf"
     path.write_text(text.replace(old, old.replace("5e-05", "1e308")))
-    status, _, err = _run(capsys, "solve", path)
+    status, _, err = run_command(capsys, "solve", path)
     assert status == 2
-    line = _one_line(err)
+    line = one_line(err)
     assert str(path) in line and "<joint name='pin_A'>" in line and "1e+308 m" in line
 
 
@@ -174,9 +160,9 @@ def test_a_play_many_times_the_mechanism_is_refused(slider_crank):
 def test_an_output_point_at_1e308_is_exit_2(capsys):
     """`envelope --output rod@[1e308,0,0]`: overflow warnings and exit 4 (the solver) before;
     now exit 2, one line naming the output."""
-    status, _, err = _run(capsys, "envelope", SLIDER_CRANK, "--output", "rod@[1e308,0,0]")
+    status, _, err = run_command(capsys, "envelope", SLIDER_CRANK, "--output", "rod@[1e308,0,0]")
     assert status == 2
-    line = _one_line(err)
+    line = one_line(err)
     assert "output" in line and "rod@[1e308,0,0]" in line and "1e+150 m" in line
 
 
@@ -191,9 +177,9 @@ def test_a_lone_surrogate_in_a_file_is_exit_2_naming_the_file(tmp_path, capsys):
     )
     path = tmp_path / "surrogate.urdf"
     path.write_bytes(text.encode("ascii"))
-    status, _, err = _run(capsys, "solve", path)
+    status, _, err = run_command(capsys, "solve", path)
     assert status == 2
-    line = _one_line(err)
+    line = one_line(err)
     assert str(path) in line and "lone surrogate" in line
     with pytest.raises(cp.ModelError, match="lone surrogate"):
         cp.load(path)
