@@ -46,6 +46,18 @@ def test_tolerance_refuses_a_passive_joint(capsys):
     assert "joint" in line and "pin_A is not driven" in line and "crank_pivot" in line
 
 
+def test_tolerance_names_an_unknown_budget_output_before_sweeping(capsys):
+    """`tolerance --budget nope`: refused before the sweep, naming --budget and the outputs there
+    are (before: after the whole sweep, as "Sweep.index: unknown output")."""
+    status, out, err = run_command(
+        capsys, "tolerance", SLIDER_CRANK, "--budget", "nope", "--samples", 0
+    )
+    assert status == 2 and out == ""
+    line = one_line(err)
+    assert "--budget" in line and "'nope'" in line and "slider.x" in line
+    assert "Sweep.index" not in line
+
+
 @pytest.mark.parametrize(
     ("arguments", "argument", "shown"),
     [
@@ -226,6 +238,19 @@ def test_loads_beyond_double_precision_are_refused(slider_crank, factor):
         slider_crank.solve(loads=_scaled_loads(slider_crank, factor))
     with pytest.raises(cp.LoadError, match=r"in loads\[1\]"):
         slider_crank.solve_many(loads=[slider_crank.loads, _scaled_loads(slider_crank, factor)])
+
+
+@pytest.mark.parametrize("factor", [1e-300, 1e160])
+def test_the_resolver_refuses_values_beyond_double_precision(slider_crank, factor):
+    """`resolver.solve(values)` checks the new vectors as `solve` checks loads (before: 1e160
+    times the loads failed in the solver, 1e-300 times was solved as no load)."""
+    resolver = slider_crank.resolver(slider_crank.loads)
+    values = np.concatenate([load.force for load in slider_crank.loads])
+    np.testing.assert_allclose(
+        resolver.solve(values).torsor("pin_A"), slider_crank.solve().torsor("pin_A"), rtol=1e-9
+    )
+    with pytest.raises(cp.LoadError, match=r"in values.*double precision"):
+        resolver.solve(values * factor)
 
 
 def test_small_loads_give_the_same_pose_or_a_load_error(slider_crank):

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from ..arguments import check_solve
+from ..arguments import LARGEST_MAGNITUDE, SMALLEST_LOAD, check_load_magnitudes, check_solve
 from ..errors import ArgumentError, ClearancePinError, SolverError
 from ..model.loads import PointForce, Torque, with_vector
 from .blocks import block_structure
@@ -61,6 +61,10 @@ class Resolver:
                 "loads", "at least one PointForce or Torque (solve() changes their vectors)", loads
             )
         self.size = 3 * len(self._varying)
+        # above this, a value may make a force's moment about its link origin exceed what
+        # check_load_magnitudes allows: that check (building the load objects) names it then
+        farthest = max((_farthest_point(self.loads[i]) for i in self._varying), default=0.0)
+        self._largest_value = LARGEST_MAGNITUDE / max(1.0, farthest)
         self._points = resolve_outputs(mechanism, self.loads, outputs)
         self._prepared = prepared_geometry(mechanism, self._q)  # kept: valid while we hold it
         self._options = (tol, backend, warm_start)
@@ -84,6 +88,9 @@ class Resolver:
                 "force and torque vectors [N, N m], a row each, in the order of resolver.loads",
                 values,
             )
+        largest = float(np.abs(vector).max())
+        if largest > self._largest_value or 0.0 < largest < SMALLEST_LOAD:
+            check_load_magnitudes(self._loads_with(vector), "values")
         if self._compiled:
             answer = self._resolve_compiled(vector)
             if answer is not None:
@@ -152,3 +159,8 @@ def _finite_vector(values, size: int) -> np.ndarray | None:
 
 
 __all__ = ["Resolver"]
+
+
+def _farthest_point(load) -> float:
+    """The largest coordinate [m] of a PointForce's point (0 for a Torque)."""
+    return float(np.abs(load.point).max()) if isinstance(load, PointForce) else 0.0

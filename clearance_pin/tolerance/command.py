@@ -28,7 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..arguments import MOST_POSITIONS, MOST_SAMPLES, check_count, check_seed
-from ..errors import ArgumentError, ClearancePinError
+from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from .sensitivity import Output, determined_outputs, parse_output, sensitivities
 from .sweep import (
     Budget,
@@ -161,6 +161,8 @@ def run(args: argparse.Namespace) -> int:
         if args.output
         else default_outputs(mechanism)
     )
+    if args.budget and args.budget not in [output.name for output in outputs]:
+        raise NotFoundError("output", args.budget, [output.name for output in outputs], "--budget")
     start, stop, offset = _range_si(mechanism, args)
     result = sweep(
         mechanism,
