@@ -194,6 +194,15 @@ class SolverError(ClearancePinError):
         return (type(self), (self.message, self.status, self.residuals, self.answer))
 
 
+class NearSingularError(SolverError):
+    """No verified small-displacement answer near a singular position of the loop closure (a
+    toggle or dead centre): there the linear model would turn joints by more than it can
+    represent (rotations << 1 rad) and its contact forces grow as 1 / conditioning, so its
+    optimum is neither reachable to the verification tolerances nor meaningful.
+    ``Mechanism.solve(exact=True)`` answers there (the exact model then starts from the nominal
+    position). A subclass of :class:`SolverError` (same attributes)."""
+
+
 class UnsupportedError(ClearancePinError, NotImplementedError):
     """A feature combination that clearance_pin does not handle (named in the message)."""
 

@@ -22,7 +22,7 @@ from .equilibrium.negligible_play import rigid_negligible_plays
 from .equilibrium.outputs import resolve_outputs
 from .equilibrium.second_order import estimate_difference
 from .equilibrium.solve import solve_linear
-from .errors import ClearancePinError, LoadError, ModelError, SolverError
+from .errors import ClearancePinError, LoadError, ModelError, NearSingularError, SolverError
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
 from .model import plausibility
 from .model.joints import LoopJoint, TreeJoint
@@ -345,7 +345,19 @@ class Mechanism:
 
     def _solve(self, resolved, exact, q, tol, backend, accuracy, warm_start, outputs=None):
         points = resolve_outputs(self, resolved, outputs)
-        linear = solve_linear(self, resolved, q, tol, backend, warm_start, points)
+        try:
+            linear = solve_linear(self, resolved, q, tol, backend, warm_start, points)
+        except NearSingularError as near:
+            if not exact:
+                raise
+            # near a toggle the linear model has no meaningful answer; the exact one does
+            result = _exact(self, resolved, q, near.answer, tol, from_nominal=True)
+            note = (
+                "near a singular position of the loop closure the small-displacement model "
+                "has no verified answer (.linear is its unverified one): the exact model was "
+                "solved from the nominal position"
+            )
+            return replace(result, note=f"{note}; {result.note}" if result.note else note)
         if exact == "auto":
             estimate = estimate_difference(linear, resolved, q, points)
             error = max(estimate.translation_m, estimate.rotation_rad * self.length_scale())
@@ -416,8 +428,8 @@ class Mechanism:
         )
 
 
-def _exact(mechanism, loads, q, linear, tol):
+def _exact(mechanism, loads, q, linear, tol, from_nominal=False):
     """The exact model's solve; imported on first use (CasADi loads then, not at import)."""
     from .equilibrium.exact import solve_exact_model
 
-    return solve_exact_model(mechanism, loads, q, linear, tol)
+    return solve_exact_model(mechanism, loads, q, linear, tol, from_nominal)

@@ -11,6 +11,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from mechanism_strategies import four_bar_text
 from oracle import Oracle, compare
@@ -179,3 +180,61 @@ def test_compiled_kernel_measures_the_same_statics():
         expected = prepared.statics_residual(problem.gradient, forces, problem.load_size)
         assert measured[0] == pytest.approx(expected, rel=1e-12, abs=1e-15)
     assert measured[0] > 0.5
+
+
+def _displaced(eq, mechanism, frame: str) -> pin.SE3:
+    """World placement of ``frame`` in the answer: the nominal placement from a plain Pinocchio
+    forward kinematics, moved by the answer's reported finite displacement."""
+    model = mechanism.model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, mechanism.q_nominal)
+    nominal = data.oMf[model.getFrameId(frame)]
+    translation, rotation = eq.frame_displacement(frame)
+    return pin.SE3(pin.exp3(rotation) @ nominal.rotation, nominal.translation + translation)
+
+
+@pytest.mark.parametrize("delta", [1e-4, 1e-6])
+def test_near_a_toggle_the_exact_model_answers(delta):
+    """The four-bar 1e-4 and 1e-6 rad before its toggle: the small-displacement model has no
+    verified answer there (a SolverError before; its optimum turns joints by tens of radians),
+    now a NearSingularError saying exact=True; exact=True answers (a SolverError too before: it
+    started from that answer), from the nominal position.
+
+    Independent check, sharing no code with the solver: the in-plane statics of the coupler and
+    the rocker at the displaced pose (Pinocchio's own nominal kinematics moved by the reported
+    displacements), with the pin forces read as forces only. A round pin in its hole pushes along
+    the line of centres, so its moment is taken about the pin's centre on either part. The loaded
+    pin B sits on its play (5e-5 m radial)."""
+    mechanism = clearance_pin.loads(four_bar_text(delta))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", clearance_pin.ConditioningWarning)
+        with pytest.raises(clearance_pin.NearSingularError, match="exact=True"):
+            mechanism.solve()
+        eq = mechanism.solve(exact=True)
+    assert eq.ok and "nominal position" in eq.note
+    crank_on_coupler = eq.reaction("pin_A", frame="world").force
+    rocker_on_coupler = eq.reaction("pin_B", frame="world").force  # frame_a: the rocker's
+    ground_on_rocker = eq.reaction("rocker_pivot", frame="world").force
+    coupler = _displaced(eq, mechanism, "coupler")
+    at_b = _displaced(eq, mechanism, "coupler_B").translation
+    load_point = coupler.act(np.array([0.075, 0.0, 0.0]))  # b / 2 on the coupler
+    # the exact model's torque is the couple of dead loads (docs/method.md, exact model: work
+    # sin(theta) n . C): on the rocker, turned by theta about z, its moment is C cos(theta)
+    theta = eq.frame_displacement("rocker")[1][2]
+    load, torque = np.array([3.0, -40.0, 0.0]), np.array([0.0, 0.0, -2.0 * np.cos(theta)])
+    coupler_force = crank_on_coupler + rocker_on_coupler + load
+    coupler_moment = np.cross(at_b - coupler.translation, rocker_on_coupler) + np.cross(
+        load_point - coupler.translation, load
+    )
+    rocker = _displaced(eq, mechanism, "rocker")
+    rocker_b = _displaced(eq, mechanism, "rocker_B").translation
+    rocker_force = ground_on_rocker - rocker_on_coupler
+    rocker_moment = np.cross(rocker_b - rocker.translation, -rocker_on_coupler) + torque
+    size = np.linalg.norm(load)
+    np.testing.assert_allclose(coupler_force[:2], 0.0, atol=1e-9 * size)
+    np.testing.assert_allclose(rocker_force[:2], 0.0, atol=1e-9 * size)
+    np.testing.assert_allclose(coupler_moment[2], 0.0, atol=1e-9 * size * 0.15)
+    np.testing.assert_allclose(rocker_moment[2], 0.0, atol=1e-9 * size * 0.15)
+    # bounded forces (the rigid statics at this pose grows as 1 / delta: 2e4 N at 1e-4)
+    assert np.linalg.norm(rocker_on_coupler) < 100.0
+    assert np.linalg.norm(at_b - rocker_b) == pytest.approx(5e-5, rel=1e-6)

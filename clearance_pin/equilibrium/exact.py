@@ -283,8 +283,14 @@ def independent_rows(equalities: np.ndarray, scale: np.ndarray) -> tuple[int, ..
     return tuple(kept)
 
 
-def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> Equilibrium:
-    """Solve the exact model from the linear equilibrium ``linear``; residuals measured."""
+def solve_exact_model(
+    mechanism, loads, q, linear: Equilibrium, tol: float, from_nominal: bool = False
+) -> Equilibrium:
+    """Solve the exact model from the linear equilibrium ``linear``; residuals measured.
+
+    ``from_nominal``: ``linear`` is an answer that did not verify near a singular position of the
+    closure (:class:`~clearance_pin.errors.NearSingularError`), no start: IPOPT starts from the
+    nominal position and no contact (``linear`` is still reported as the answer's ``.linear``)."""
     points = linear.output_points or resolve_outputs(mechanism, linear.loads or ())
     if linear.status == "indeterminate":  # nothing moves: the exact answer is the nominal one
         unmoved = replace(linear, formulation="exact", linear=linear, output_points=points)
@@ -300,14 +306,14 @@ def solve_exact_model(mechanism, loads, q, linear: Equilibrium, tol: float) -> E
     sigma = problem.objective_scale or 1.0
     params = ca.DM(exact.parameters(configuration, problem.scale, body_loads, problem, sigma))
     x_linear = np.concatenate([_coordinates(linear, joint) for joint in mechanism.tree_joints])
-    z0 = x_linear / problem.scale
+    z0 = np.zeros_like(x_linear) if from_nominal else x_linear / problem.scale
     solve_started = time.perf_counter()
     # the exact answer is a second-order correction of the linear one, on the same contacts:
     # Newton on the exact KKT system of those contacts first, IPOPT only if it is not verified
     at_upper, at_lower, start = _linear_start(linear, exact.shapes, sigma)
     lam0 = np.zeros(exact.lower.size)
     lam0[: start.size] = start
-    polished = polish_exact(exact, z0, lam0, params, at_upper, at_lower)
+    polished = None if from_nominal else polish_exact(exact, z0, lam0, params, at_upper, at_lower)
     if polished is not None:
         z, lam, parts = polished
         stats = {"return_status": "Newton from the linear solution", "iter_count": 0}
