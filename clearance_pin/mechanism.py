@@ -25,6 +25,7 @@ from .equilibrium.solve import solve_linear
 from .errors import ClearancePinError, LoadError, ModelError, NearSingularError, SolverError
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
 from .model import plausibility
+from .model.frames import frame_id as find_frame
 from .model.joints import LoopJoint, TreeJoint
 from .model.loads import Gravity, Load, PointForce, Torque
 
@@ -274,10 +275,7 @@ class Mechanism:
             if not isinstance(load, (PointForce, Torque, Gravity)):
                 raise LoadError(repr(load), "expected PointForce, Torque or Gravity")
             if not isinstance(load, Gravity) and load.link not in self.link_frames:
-                raise LoadError(
-                    f"on {load.link!r}",
-                    f"unknown link; the links are: {', '.join(sorted(self.link_frames))}",
-                )
+                raise LoadError(f"on {load.link!r}", self._not_a_link(load.link))
         if gravity is True:
             gravity = self.gravity or Gravity()
         elif gravity is None:
@@ -285,6 +283,30 @@ class Mechanism:
         if gravity:
             chosen = (*chosen, gravity)
         return chosen
+
+    def _not_a_link(self, name: str) -> str:
+        """Why ``name`` cannot carry a load: unknown, or a frame (an MJCF site, a URDF frame
+        that is no link) named with the link and the point [m] to write instead."""
+        model = self.model
+        frame_id = find_frame(model, name)
+        if frame_id is None:
+            return f"unknown link; the links are: {', '.join(sorted(self.link_frames))}"
+        frame = model.frames[frame_id]
+        links = set(self.link_frames.values())
+        # the link the frame hangs from, else the first link moving with it
+        link_id = frame.parentFrame if frame.parentFrame in links else None
+        if link_id is None:
+            link_id = next(
+                i for i in sorted(links) if model.frames[i].parentJoint == frame.parentJoint
+            )
+        link = model.frames[link_id]
+        point = (link.placement.inverse() * frame.placement).translation
+        return (
+            f"a frame (an MJCF site or a URDF frame), not a link: a load is applied to a link "
+            f"(an MJCF body) at a point in the link's frame; {name!r} is on link {link.name!r} "
+            f"at [{point[0]:.6g} {point[1]:.6g} {point[2]:.6g}] m: write PointForce("
+            f"{link.name!r}, force, point=[{point[0]:.6g}, {point[1]:.6g}, {point[2]:.6g}])"
+        )
 
     # -- solving --------------------------------------------------------------------------
     def solve(

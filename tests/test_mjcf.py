@@ -281,3 +281,24 @@ def test_a_body_pinocchio_misplaces_is_refused():
     problem = caught.value.problem
     assert "[0.31, 0.0, 0.1] m" in problem and "[0.3, 0.0, 0.1] m" in problem
     assert "pos='0.3 0 0'" in problem
+
+
+def test_a_load_on_a_site_names_the_link_and_point_to_write(tmp_path):
+    """A force on an MJCF site (a Kinova's pinch_site, say): a load is applied to a link at a
+    point in its frame, so the LoadError names the site's body and the site's position in it,
+    as the file writes it (``pos`` of the site), ready to paste (it said only "unknown link").
+    The suggested load is accepted and solved."""
+    text = ARM_MJCF.replace(
+        '<geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.02"/>',
+        '<geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.02"/>\n'
+        '        <site name="tip" pos="0.25 0 0.01" quat="0.7071068 0 0.7071068 0"/>',
+    )
+    mechanism = cp.loads(text, source="arm", clearances=arm_play(tmp_path))
+    with pytest.raises(cp.LoadError) as caught:
+        mechanism.solve(loads=[cp.PointForce("tip", [0.0, 0.0, -10.0])])
+    message = str(caught.value)
+    assert "'tip'" in message and "link 'fore'" in message
+    written = message.split("write ")[1]
+    assert written == "PointForce('fore', force, point=[0.25, 0, 0.01])"
+    answer = mechanism.solve(loads=[cp.PointForce("fore", [0.0, 0.0, -10.0], [0.25, 0, 0.01])])
+    assert answer.ok
