@@ -2,8 +2,12 @@
 
     clearance-pin solve MODEL [--clearances FILE] [--exact] [--json] [--check] [--output FRAME]
                         [--plot FILE] [--gravity on|off] [--package-dir DIR]
-    clearance-pin envelope MODEL [--output FRAME] [--plot F] [--json F]   (the clearance envelope)
-    clearance-pin tolerance MODEL ...      (see ``clearance-pin tolerance --help``)
+    clearance-pin envelope MODEL [--clearances FILE] [--output FRAME] [--plot F] [--json F]
+    clearance-pin tolerance MODEL [--clearances FILE] ...   (``clearance-pin tolerance --help``)
+    clearance-pin --version            (also: python -m clearance_pin ...)
+
+MODEL is a URDF or MJCF file; every sub-command takes ``--clearances FILE`` (the clearances
+beside an unmodified vendor file, XML or TOML) and ``--package-dir DIR`` (where meshes are).
 
 The paper's validation cases are a script of the source tree, not a sub-command:
 ``python validation/younes2013.py [--json FILE] [--check]``.
@@ -19,6 +23,7 @@ Exit status:
   be read or written (checked before any work where it can be: ``--plot`` of a known type,
   ``--json`` in an existing folder);
 - 3: no equilibrium: the load drives a motion that nothing blocks (the line names the motion);
+  ``envelope``: an output moves without bound along such a motion (the line names it);
 - 4: the solver did not reach a verified answer (the line gives its status and residuals).
 """
 
@@ -30,18 +35,24 @@ import sys
 import warnings
 from pathlib import Path
 from types import ModuleType
-from typing import Any, TextIO
+from typing import TextIO
 
+from .commands import (
+    BAD_INPUT,
+    NO_EQUILIBRIUM,
+    OK,
+    OUT_OF_TOLERANCE,
+    SOLVER_FAILED,
+    add_model_arguments,
+    model_options,
+)
 from .errors import ClearancePinError, SolverError, UnboundedLoadError
-
-OK, OUT_OF_TOLERANCE, BAD_INPUT, NO_EQUILIBRIUM, SOLVER_FAILED = range(5)
-"""The exit statuses (module docstring)."""
 
 
 def _solve(args: argparse.Namespace) -> int:
     from .loading import load
 
-    mechanism = load(args.model, **_model_options(args))
+    mechanism = load(args.model, **model_options(args))
     gravity = {"on": True, "off": False, None: None}[args.gravity]
     outputs = args.output or None
     equilibrium = mechanism.solve(exact=args.exact, gravity=gravity, outputs=outputs)
@@ -97,10 +108,13 @@ def _solve(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the command."""
+    from . import __version__
+
     parser = argparse.ArgumentParser(prog="clearance-pin", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"clearance-pin {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
     solve = commands.add_parser("solve", help="equilibrium of a model in its joint clearances")
-    solve.add_argument("model", type=Path, help="model file (URDF with a <clearance_pin> block)")
+    add_model_arguments(solve)
     solve.add_argument("--exact", action="store_true", help="also solve the exact model")
     solve.add_argument("--json", action="store_true", help="print JSON instead of a table")
     solve.add_argument("--check", action="store_true", help="measure the pose with coal")
@@ -119,21 +133,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="a Pinocchio frame whose world displacement is reported (repeatable; default: the "
         "loaded points and the leaf links)",
     )
-    solve.add_argument(
-        "--clearances",
-        type=Path,
-        metavar="FILE",
-        help="the clearances of an unmodified URDF or MJCF file: a <clearance_pin> XML file or "
-        "its TOML form (docs/model-format.md)",
-    )
-    solve.add_argument(
-        "--package-dir",
-        action="append",
-        type=Path,
-        metavar="DIR",
-        help="where collision meshes are looked for (package://PKG/FILE is DIR/PKG/FILE; "
-        "repeatable; ROS_PACKAGE_PATH is searched too); only --check reads meshes",
-    )
     solve.set_defaults(run=_solve)
     tolerance_command: ModuleType | None
     from .envelope import command as envelope_command
@@ -148,11 +147,6 @@ def build_parser() -> argparse.ArgumentParser:
         tolerance_command.add_arguments(tolerance)
         tolerance.set_defaults(run=tolerance_command.run)
     return parser
-
-
-def _model_options(args: argparse.Namespace) -> dict[str, Any]:
-    """Keyword arguments of :func:`clearance_pin.load` from the command line."""
-    return {"package_dirs": args.package_dir, "clearances": args.clearances}
 
 
 def _one_line_warnings(

@@ -13,6 +13,7 @@ import json
 import math
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -337,3 +338,62 @@ def test_clearances_beside_an_unmodified_urdf(tmp_path, capsys):
         json.loads(beside)["equilibrium"]["torsors"]
         == json.loads(with_block)["equilibrium"]["torsors"]
     )
+
+
+# -- every sub-command reads the model the same way --------------------------------------------
+def _beside(tmp_path: Path, model: Path) -> tuple[Path, Path]:
+    """The model's URDF without its block, and the block as a clearance file beside it."""
+    from test_clearance_file import split
+
+    bare, block = split(model.read_text())
+    urdf, clearances = tmp_path / model.name, tmp_path / f"{model.stem}_play.xml"
+    urdf.write_text(bare)
+    clearances.write_bytes(ET.tostring(block))
+    return urdf, clearances
+
+
+def test_envelope_and_tolerance_read_a_clearance_file_beside_the_model(tmp_path, capsys):
+    """`envelope` and `tolerance` take --clearances like `solve` (they took the model file only,
+    so a vendor URDF had no envelope or tolerance sweep from the command line): the four-bar
+    rocker's pivot moves at most its pin's play, 50 um (closed form, as above), and the
+    pendulum's bands are those of the file with its block inside."""
+    urdf, clearances = _beside(tmp_path, MODELS / "four_bar.urdf")
+    written = tmp_path / "envelope.json"
+    status, _, err = run_command(
+        capsys, "envelope", urdf, "--clearances", clearances, "--output", "rocker",
+        "--kind", "translation", "--json", written,
+    )  # fmt: skip
+    assert status == 0, err
+    maximum = json.loads(written.read_text())["envelopes"][0]["kinds"]["translation"]["maximum"]
+    assert maximum["upper"] == pytest.approx(50e-6, rel=1e-6)
+    urdf, clearances = _beside(tmp_path, PENDULUM)
+    options = ["--joint", "shoulder", "--output", "tip.x", "--positions", "5", "--samples", "0",
+               "--no-maxima"]  # fmt: skip
+    bands = []
+    for arguments in ([urdf, "--clearances", clearances], [PENDULUM]):
+        report = tmp_path / "bands.json"
+        status, _, err = run_command(capsys, "tolerance", *arguments, *options, "--json", report)
+        assert status == 0, err
+        bands.append(json.loads(report.read_text())["outputs"]["tip.x"]["worst"])
+    np.testing.assert_allclose(bands[0], bands[1], rtol=1e-12)
+
+
+def test_envelope_of_an_output_without_bound_says_unbounded_and_exits_3(tmp_path, capsys):
+    """The 6R arm without its clearances: every joint turns freely, so the tool moves without
+    bound; it printed "largest 0.000000 <= max <= 0.000000 um" and exited 0."""
+    urdf, _ = _beside(tmp_path, MODELS / "arm_6r.urdf")
+    status, out, err = run_command(capsys, "envelope", urdf, "--output", "tool")
+    assert status == 3
+    assert "translation: UNBOUNDED along 3 free direction(s)" in out
+    line = one_line(err)
+    assert "unbounded" in line and "tool translation" in line
+
+
+def test_version_and_python_dash_m():
+    """`clearance-pin --version` and `python -m clearance_pin --version`: the package's version."""
+    done = subprocess.run(
+        [sys.executable, "-m", "clearance_pin", "--version"],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == f"clearance-pin {cp.__version__}"

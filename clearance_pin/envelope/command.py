@@ -9,8 +9,10 @@ state's deviation, the proven upper bound, their relative gap, the contacts the 
 the ranges along the world axes and the output frame's own and, with ``--exact``, the extremes
 re-solved with finite displacements. ``--json`` writes the same in SI (m, rad); ``--plot`` draws
 the envelopes (matplotlib). Exit status: 0 certified to ``--tol``, 1 a gap left above it
-(printed, then one line on standard error); errors as the other sub-commands (2 bad input, 3 a
-load along a free motion, 4 a solver failure).
+(printed, then one line on standard error); 3 an output that moves without bound along a motion
+no play or drive limits (printed as UNBOUNDED with those directions, the rest of its envelope
+with them removed, then one line on standard error); errors as the other sub-commands (2 bad
+input, 3 a load along a free motion, 4 a solver failure).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ..commands import NO_EQUILIBRIUM, add_model_arguments, model_options
 from . import envelope
 from .result import Envelope
 
@@ -39,7 +42,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the ``envelope`` sub-command."""
-    parser.add_argument("model", type=Path, help="model file (URDF with a <clearance_pin> block)")
+    add_model_arguments(parser)
     parser.add_argument(
         "--output",
         action="append",
@@ -65,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     from .. import load
     from ..equilibrium.outputs import leaf_links
 
-    mechanism = load(args.model)
+    mechanism = load(args.model, **model_options(args))
     outputs = args.output or list(leaf_links(mechanism.model))
     kinds = ("translation", "rotation") if args.kind == "both" else (args.kind,)
     results: list[Envelope] = []
@@ -90,6 +93,19 @@ def run(args: argparse.Namespace) -> int:
         }
         args.json.write_text(json.dumps(document, indent=1))
         print(f"JSON written to {args.json}")
+    unbounded = [
+        f"{r.output.name} {kind} ({part.free.shape[1]} free direction(s))"
+        for r in results
+        for kind, part in r.kinds.items()
+        if part.free.shape[1]
+    ]
+    if unbounded:
+        print(
+            f"clearance-pin: {args.model}: unbounded: " + "; ".join(unbounded) + ": a motion "
+            "that no play or drive limits moves the output (drive or lock that joint)",
+            file=sys.stderr,
+        )
+        return NO_EQUILIBRIUM
     open_gaps = [
         f"{r.output.name} {kind} gap {part.maximum.gap:.2e}"
         for r in results

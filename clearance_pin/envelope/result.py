@@ -181,6 +181,7 @@ class Envelope:
             kinds[kind] = {
                 "unit": unit if kind == "translation" else "rad",
                 "span": envelope.basis.T.tolist(),
+                "unbounded": bool(envelope.free.shape[1]),
                 "free_directions": envelope.free.T.tolist(),
                 "maximum": {
                     "lower": extreme.lower * scale,
@@ -218,8 +219,15 @@ class Envelope:
         for kind, envelope in self.kinds.items():
             scale, label = (length, unit) if kind == "translation" else (1e6, "urad")
             extreme = envelope.maximum
+            free_count = envelope.free.shape[1]
+            if free_count:
+                lines.append(
+                    f"{kind}: UNBOUNDED along {free_count} free direction(s) (a motion no play "
+                    "or drive limits moves the output: drive or lock the joint that allows it)"
+                )
             lines.append(
-                f"{kind}: span {envelope.dimension}-D, largest {extreme.lower * scale:.6f} "
+                f"{kind}{' (free directions removed)' if free_count else ''}: span "
+                f"{envelope.dimension}-D, largest {extreme.lower * scale:.6f} "
                 f"<= max <= {extreme.upper * scale:.6f} {label} (gap {extreme.gap:.1e}, "
                 f"{extreme.method}, {extreme.directions} directions"
                 f"{'' if extreme.certified else ', NOT certified'})"

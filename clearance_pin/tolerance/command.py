@@ -28,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..arguments import MOST_POSITIONS, MOST_SAMPLES, check_count, check_seed
+from ..commands import add_model_arguments, model_options
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from .sensitivity import Output, determined_outputs, parse_output, sensitivities
 from .sweep import (
@@ -54,7 +55,7 @@ _TABLE_SCALE = {"m": (1e6, "um"), "rad": (1e6, "urad")}
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the ``tolerance`` sub-command."""
-    parser.add_argument("model", type=Path, help="model file with <dimension> elements")
+    add_model_arguments(parser, " (with <dimension> elements)")
     parser.add_argument(
         "--output",
         action="append",
@@ -150,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
     if args.samples != 0:  # 0: no Monte Carlo; one sample has no spread
         check_count("--samples", args.samples, 2, MOST_SAMPLES)
     check_seed("--seed", args.seed)
-    mechanism = load(args.model)
+    mechanism = load(args.model, **model_options(args))
     if not mechanism.dimensions:
         raise ClearancePinError(
             f"{args.model}: no <dimension> element in the <clearance_pin> "
