@@ -6,7 +6,7 @@ clearance or nominal configuration of the same structure.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
@@ -22,7 +22,14 @@ from .equilibrium.negligible_play import rigid_negligible_plays
 from .equilibrium.outputs import resolve_outputs
 from .equilibrium.second_order import estimate_difference
 from .equilibrium.solve import solve_linear
-from .errors import ClearancePinError, LoadError, ModelError, NearSingularError, SolverError
+from .errors import (
+    ClearancePinError,
+    LoadError,
+    ModelError,
+    NearSingularError,
+    NotFoundError,
+    SolverError,
+)
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
 from .model import plausibility
 from .model.frames import frame_id as find_frame
@@ -51,12 +58,20 @@ class Configuration:
     oMf: tuple
     aMc: dict
     bMc: dict
+    loop_frames: dict = field(default_factory=dict)
 
-    def eccentricity(self, loop) -> pin.SE3:
-        """The loop joint's child clearance frame in its parent one at this configuration:
-        identity for an aligned joint, the nominal eccentricity (a misaligned housing) else."""
-        oMa, oMb = self.oMf[loop.frame_a], self.oMf[loop.frame_b]
-        return (oMa * self.aMc[loop.name]).actInv(oMb * self.bMc[loop.name])
+    def eccentricity(self, loop: LoopJoint | str) -> pin.SE3:
+        """The loop joint's (or the loop joint called ``loop``'s) child clearance frame in its
+        parent one at this configuration: identity for an aligned joint, the nominal
+        eccentricity (a misaligned housing) else."""
+        name = loop if isinstance(loop, str) else loop.name
+        if name not in self.aMc:
+            raise NotFoundError("loop joint", name, self.aMc, "Configuration.eccentricity")
+        frame_a, frame_b = (
+            self.loop_frames[name] if isinstance(loop, str) else (loop.frame_a, loop.frame_b)
+        )
+        oMa, oMb = self.oMf[frame_a], self.oMf[frame_b]
+        return (oMa * self.aMc[name]).actInv(oMb * self.bMc[name])
 
 
 class Mechanism:
@@ -231,7 +246,8 @@ class Mechanism:
             raise ModelError(self.source, "<loop_joint>", problems[0])
         aMc = {name: pair[0] for name, pair in frames.items()}
         bMc = {name: pair[1] for name, pair in frames.items()}
-        return Configuration(q.copy(), oMi, oMf, aMc, bMc)
+        loops = {loop.name: (loop.frame_a, loop.frame_b) for loop in self.loop_joints}
+        return Configuration(q.copy(), oMi, oMf, aMc, bMc, loops)
 
     def _closed_start(self, q: np.ndarray) -> np.ndarray | None:
         """The closed configuration nearest to ``q`` in the driven joints (None before loading)."""

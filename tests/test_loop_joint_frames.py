@@ -10,7 +10,7 @@ from conftest import MODELS
 
 import clearance_pin as cp
 from clearance_pin import PointForce, Torque
-from clearance_pin.errors import ModelError
+from clearance_pin.errors import ModelError, NotFoundError
 from clearance_pin.loading import loads
 
 PLAY = 5e-05  # [m] every joint of models/slider_crank.urdf
@@ -202,3 +202,17 @@ def test_the_eccentricity_is_reported():
     assert "eccentric (misaligned housing) B2" in equilibrium.table()
     assert equilibrium.to_dict()["eccentricities"]["B2"]["translation"][1] == pytest.approx(-20e-6)
     assert three_bearing_shaft(0.0).solve().eccentricities == {}
+
+
+def test_the_eccentricity_by_name_as_the_docs_write_it():
+    """`Configuration.eccentricity("B2")`, as docs/model-format.md writes it (an AttributeError
+    before: only a LoopJoint was taken): the housing 20 um high, so the journal's clearance frame
+    sits 20 um below it in the housing's frame (the construction above); an unknown name is a
+    NotFoundError listing the loop joints."""
+    mechanism = three_bearing_shaft(20e-6)
+    configuration = mechanism.configure(mechanism.q_nominal)
+    offset = configuration.eccentricity("B2")
+    assert offset.translation == pytest.approx([0.0, -20e-6, 0.0], abs=1e-15)
+    assert configuration.eccentricity(mechanism.joint("B3")).isIdentity(1e-15)
+    with pytest.raises(NotFoundError, match="B9.*B2, B3"):
+        configuration.eccentricity("B9")
