@@ -183,8 +183,18 @@ def test_four_bar_rocker_range_linear_and_exact():
     env = envelope(mechanism, "rocker", exact=True)
     rotation = env.kinds["rotation"]
     assert rotation.dimension == 1 and abs(rotation.basis[2, 0]) == pytest.approx(1.0)
-    low, high = env.range([0, 0, 1], "rotation")
+    low, high = rotation.world[2]
     assert (low, high) == (pytest.approx(-linear, rel=1e-10), pytest.approx(linear, rel=1e-10))
+    # range() and support() of an envelope built with exact=True are the exact model's (they
+    # returned the linear numbers): the rigid four-bar with coupler L3 -/+ 4r, asymmetric
+    exact_range = env.range([0, 0, 1], "rotation")
+    assert exact_range == (pytest.approx(reach[0], abs=1e-12), pytest.approx(reach[1], abs=1e-12))
+    assert env.support([0, 0, -1], "rotation") == pytest.approx(-reach[0], abs=1e-12)
+    linear_only = envelope(mechanism, "rocker", kinds=("rotation",))
+    assert linear_only.range([0, 0, 1], "rotation") == (
+        pytest.approx(-linear, rel=1e-10),
+        pytest.approx(linear, rel=1e-10),
+    )
     assert env.max_rotation.lower == pytest.approx(linear, rel=1e-10)
     assert env.max_rotation.gap == 0.0
     assert sorted(env.max_rotation.contacts) == sorted(

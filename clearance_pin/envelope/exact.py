@@ -58,6 +58,15 @@ class ExactKind:
     frame: Vector
     linear_world: Vector
     linear_frame: Vector
+    support: SupportFunction | None = field(default=None, repr=False, compare=False)
+
+    def extreme_along(self, d: Vector) -> float:
+        """:math:`d \\cdot \\delta_{ex}(d)` [m or rad]: the exact equilibrium under the unit load
+        along the unit direction ``d`` (module docstring: a verified exact state, the exact
+        extreme along d; not certified)."""
+        if self.support is None:
+            raise ValueError("this exact envelope was built without its support function")
+        return float(d @ self.support.evaluate(d[None, :]).points[0])
 
     def to_dict(self, length: float = 1.0) -> dict[str, Any]:
         """JSON-ready dict (translations times ``length``)."""
@@ -137,6 +146,7 @@ def exact_extremes(
         frame=ranges[3:],
         linear_world=linear.world,
         linear_frame=linear.frame,
+        support=support,
     )
 
 

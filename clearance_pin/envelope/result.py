@@ -123,7 +123,9 @@ class Envelope:
     def support(self, direction: object, kind: str = "translation") -> float:
         r"""$h(d) = \max_{\delta \in D} d \cdot \delta$ [m or rad] for a direction in world axes
         (normalised here): the equilibrium under the unit load along it; ``inf`` when ``d`` has
-        a component along a free direction."""
+        a component along a free direction. An envelope built with ``exact=True`` answers with
+        the exact model: :math:`d \cdot \delta_{ex}(d)`, the exact extreme along d (a verified
+        exact state, not certified: :mod:`.exact`)."""
         d = _direction(direction)
         envelope = self._kind(kind)
         free = envelope.free
@@ -131,12 +133,16 @@ class Envelope:
             return math.inf
         key = (kind, np.round(d, 15).tobytes())
         if key not in self._memo:
-            found = self._supports[kind].evaluate(d[None, :])
-            self._memo[key] = float(found.values[0])
+            exact = (self.exact or {}).get(kind)
+            if exact is not None and exact.support is not None:
+                self._memo[key] = exact.extreme_along(d)
+            else:
+                self._memo[key] = float(self._supports[kind].evaluate(d[None, :]).values[0])
         return self._memo[key]
 
     def range(self, direction: object, kind: str = "translation") -> tuple[float, float]:
-        """(min, max) of $d \\cdot \\delta$ over the envelope [m or rad]: $(-h(-d), h(d))$."""
+        """(min, max) of $d \\cdot \\delta$ over the envelope [m or rad]: $(-h(-d), h(d))$ (with
+        ``exact=True``, the exact model's: asymmetric at second order)."""
         d = _direction(direction)
         return (-self.support(-d, kind), self.support(d, kind))
 
