@@ -12,7 +12,8 @@ Metrics (written with ``--json``):
   (tests/oracle.py); ``max_rel_error``: the largest relative error among those that agree
   (energy, torsors in loaded directions relative to the largest clearance, penetration, statics);
   ``details.random_outcomes``: every verdict kind (``FAIL-*`` are disagreements, ``known-*``,
-  ``no-work-*`` and ``ambiguous-closure`` are known library issues, ``diagnosed`` is a SolverError;
+  ``no-work-*`` and ``ambiguous-closure`` are known library issues, ``diagnosed`` is a SolverError,
+  ``refused-load`` a LoadError for loads beyond double precision (hypothesis draws subnormals);
   ``agree-flat`` / ``agree-certified`` include answers that the oracle could not match to 1e-8 in
   energy but verified by a KKT certificate in its own formulation, tests/test_corpus_oracle.py);
 - ``scale_sweep``: per clearance/length ratio, the largest relative error of the closed forms (both

@@ -817,7 +817,7 @@ def judge(mechanism, loads, q=None) -> Verdict:
     list the motion as free and move nothing. ``errors["free_fraction"]`` is the share. Not round-off
     in general (stability example 1601: an explicit 2.2e-8 N force along a free slide, 3e-10
     of a 56 N load): a known limitation, not an agreement."""
-    from clearance_pin import ClearancePinError, SolverError, UnboundedLoadError
+    from clearance_pin import ClearancePinError, LoadError, SolverError, UnboundedLoadError
 
     oracle = Oracle(mechanism, q)
     g = oracle.gradient(loads)
@@ -835,6 +835,10 @@ def judge(mechanism, loads, q=None) -> Verdict:
             warnings.simplefilter("ignore")
             equilibrium = mechanism.solve(loads=loads, gravity=False, q=q)
     except ValueError as exc:
+        if isinstance(exc, LoadError):
+            # loads beyond what double precision carries (a subnormal torque hypothesis drew):
+            # refused by design (docs/model-format.md), nothing to compare
+            return Verdict("refused-load", {}, str(exc))
         if not isinstance(exc, ClearancePinError) and oracle.tree_is_rigid():
             return Verdict("known-no-motion-crash", {}, f"{type(exc).__name__}: {exc}")
         raise

@@ -58,6 +58,7 @@ ACCEPTED = {
     "unbounded",
     "indeterminate",
     "diagnosed",
+    "refused-load",
     "oracle-failed",
     "oracle-inaccurate",
     "ambiguous-free-motion",
