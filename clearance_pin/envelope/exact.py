@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from ..errors import ClearancePinError
 from .output import Kind, Output
 from .support import SupportFunction
 
@@ -65,7 +66,7 @@ class ExactKind:
         along the unit direction ``d`` (module docstring: a verified exact state, the exact
         extreme along d; not certified)."""
         if self.support is None:
-            raise ValueError("this exact envelope was built without its support function")
+            raise ClearancePinError("this exact envelope was built without its support function")
         return float(d @ self.support.evaluate(d[None, :]).points[0])
 
     def to_dict(self, length: float = 1.0) -> dict[str, Any]:
