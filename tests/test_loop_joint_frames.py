@@ -214,5 +214,5 @@ def test_the_eccentricity_by_name_as_the_docs_write_it():
     offset = configuration.eccentricity("B2")
     assert offset.translation == pytest.approx([0.0, -20e-6, 0.0], abs=1e-15)
     assert configuration.eccentricity(mechanism.joint("B3")).isIdentity(1e-15)
-    with pytest.raises(NotFoundError, match="B9.*B2, B3"):
+    with pytest.raises(NotFoundError, match=r"B9.*B2, B3"):
         configuration.eccentricity("B9")
