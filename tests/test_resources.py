@@ -44,7 +44,7 @@ def test_least_recently_used_drops_the_oldest_unread():
     kept["c"] = 3
     assert list(kept) == ["a", "c"] and kept.get("b") is None
     assert pickle.loads(pickle.dumps(kept)).limit == 2
-    with pytest.raises(ValueError, match="at least 1"):
+    with pytest.raises(cp.ArgumentError, match="at least 1"):
         LeastRecentlyUsed(0)
 
 

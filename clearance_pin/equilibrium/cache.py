@@ -21,6 +21,8 @@ from typing import Any, Generic, TypeVar
 
 import pinocchio as pin
 
+from ..errors import ArgumentError
+
 GEOMETRIES_KEPT = 64  # prepared configurations per mechanism (a trajectory re-visits few)
 GRAVITIES_KEPT = 16  # gathered gravity wrenches per prepared configuration (a tilting base)
 BACKENDS_KEPT = 16  # built optimisers per mechanism (one per structure, backend and tol)
@@ -40,7 +42,7 @@ class LeastRecentlyUsed(OrderedDict[Key, Value], Generic[Key, Value]):
     def __init__(self, limit: int):
         super().__init__()
         if limit < 1:
-            raise ValueError(f"a least-recently-used dict keeps at least 1 entry, got {limit}")
+            raise ArgumentError("limit", "at least 1 entry kept", limit)
         self.limit = limit
 
     def __getitem__(self, key: Key) -> Value:

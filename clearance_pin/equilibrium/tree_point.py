@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
+from ..errors import ClearancePinError
 from .small_displacement import tree_joint_basis
 
 if TYPE_CHECKING:
@@ -39,7 +40,7 @@ class TreePoint:
 
     def __init__(self, nominal: PreparedGeometry, configuration: Configuration):
         if nominal.mechanism.loop_joints:
-            raise ValueError("a trajectory point shares its geometry only without loop joints")
+            raise ClearancePinError("a trajectory point shares its geometry only in a tree")
         self.nominal = nominal
         self.configuration = configuration
 
