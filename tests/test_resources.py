@@ -12,7 +12,10 @@
 from __future__ import annotations
 
 import gc
+import json
 import pickle
+import subprocess
+import sys
 import tracemalloc
 from pathlib import Path
 
@@ -233,3 +236,17 @@ def test_a_long_tree_is_solved_without_pinocchio_data(monkeypatch):
         assert np.allclose(answer.torsor(joint), reference.torsor(joint), rtol=0, atol=1e-14)
     tip, expected = answer.frame_displacement("l120")[0], reference.frame_displacement("l120")[0]
     assert np.allclose(tip, expected, rtol=0, atol=1e-14)
+
+
+def test_the_memory_benchmark_reports_its_figures(tmp_path):
+    """benchmarks/memory.py (the figures of benchmarks/README.md) runs on a small case and writes
+    every figure, each measured in its own interpreter."""
+    out = tmp_path / "memory.json"
+    script = Path(__file__).resolve().parent.parent / "benchmarks" / "memory.py"
+    arguments = ["--points", "20", "--chains", "4", "--json", str(out)]
+    completed = subprocess.run([sys.executable, str(script), *arguments], timeout=600, check=False)
+    assert completed.returncode == 0
+    document = json.loads(out.read_text())
+    assert document["trajectory"]["points"] == 20
+    assert document["trajectory"]["bytes_per_point_held"] > 0.0
+    assert document["chains"][0]["joints"] == 4 and document["chains"][0]["ok"]
