@@ -26,6 +26,7 @@ DATA_CUBIC = 64.0  # [bytes per nv^3] of one pin.Data (Pinocchio 4.1, measured)
 DATA_QUADRATIC = 1000.0  # [bytes per nv^2]
 DATA_BASE = 4e6  # [bytes]
 MAPS_PER_SOLVE = 20  # (6 joints, 6 joints) float arrays at the peak of a solve (measured)
+ALWAYS_FITS = 64e6  # [bytes]: an estimate below is not compared with the memory available
 DATA_KEPT_UP_TO = 64e6  # [bytes]: a tree whose pin.Data would be larger is placed without one
 
 
@@ -83,12 +84,12 @@ def check_fits(
         ModelError: naming the number of joints and coordinates, the estimate and what is
             available.
     """
+    needed = solve_bytes(model, with_data)
+    if available is None and needed < ALWAYS_FITS:
+        return  # not worth reading the system's figures for every mechanism built
     if available is None:
         available = available_bytes()
-    if available is None:
-        return
-    needed = solve_bytes(model, with_data)
-    if needed > available:
+    if available is not None and needed > available:
         part = (
             f"Pinocchio's data grows as the cube of the coordinates: about "
             f"{data_bytes(model.nv) / 1e9:.3g} GB"
@@ -104,4 +105,11 @@ def check_fits(
         )
 
 
-__all__ = ["DATA_KEPT_UP_TO", "available_bytes", "check_fits", "data_bytes", "solve_bytes"]
+__all__ = [
+    "ALWAYS_FITS",
+    "DATA_KEPT_UP_TO",
+    "available_bytes",
+    "check_fits",
+    "data_bytes",
+    "solve_bytes",
+]
