@@ -31,7 +31,9 @@ from .errors import (
     SolverError,
 )
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
+from .kinematics.placements import placements_without_data
 from .model import plausibility
+from .model.footprint import DATA_KEPT_UP_TO, check_fits, data_bytes
 from .model.frames import frame_id as find_frame
 from .model.joints import LoopJoint, TreeJoint
 from .model.loads import Gravity, Load, PointForce, Torque
@@ -111,6 +113,9 @@ class Mechanism:
         nominal_given: dict[int, float] | None = None,
         check_values: bool = True,
     ):
+        # a long tree is placed without Pinocchio's data (cubic in nv: 1.7 GB at 300 joints)
+        self._without_data = not loop_joints and data_bytes(model.nv) > DATA_KEPT_UP_TO
+        check_fits(model, source, with_data=not self._without_data)  # before it is allocated
         self.model = model
         self._set_joints(tuple(tree_joints), tuple(loop_joints), source)
         self.q_nominal = pin.neutral(model) if q_nominal is None else np.array(q_nominal, float)
@@ -130,6 +135,9 @@ class Mechanism:
         # after that check: a play many times the mechanism would make every other play negligible
         joints = rigid_negligible_plays((*self.tree_joints, *self.loop_joints), source=source)
         self._set_joints(joints[: len(tree_joints)], joints[len(tree_joints) :], source)
+        # at the given nominal configuration, before the loops are closed (as it always was);
+        # now, while no caller holds this thread's data, which it places
+        self.length_scale()
         if check_values:
             given = nominal_given
             if given is None:
@@ -207,6 +215,9 @@ class Mechanism:
             raise ClearancePinError(
                 f"configuration must be {self.model.nq} finite numbers, got shape {q.shape}"
             )
+        if self._without_data:  # a long tree: nothing to close
+            oMi, oMf = placements_without_data(self.model, q)
+            return Configuration(q.copy(), oMi, oMf, {}, {})
         data = self.cache.data  # this thread's
         with self.cache.lock:  # the closed configurations are shared by threads
             pin.framesForwardKinematics(self.model, data, q)
@@ -270,10 +281,13 @@ class Mechanism:
         and the largest journal or block length of a joint with play (1 m when both are 0; an
         ideal joint's length is only a placeholder)."""
         if not hasattr(self, "_length_scale"):
-            data = self.model.createData()
-            pin.forwardKinematics(self.model, data, self.q_nominal)
-            pin.updateFramePlacements(self.model, data)
-            origins = [*data.oMi]
+            if self._without_data:
+                origins = list(placements_without_data(self.model, self.q_nominal)[0])
+            else:
+                data = self.cache.data  # this thread's (placed again wherever it is read)
+                pin.forwardKinematics(self.model, data, self.q_nominal)
+                pin.updateFramePlacements(self.model, data)
+                origins = [*data.oMi]
             for loop in self.loop_joints:  # a shaft's further bearings are loop joints
                 origins += [data.oMf[loop.frame_a], data.oMf[loop.frame_b]]
             extent = max((float(np.linalg.norm(m.translation)) for m in origins), default=0.0)

@@ -67,6 +67,11 @@ class EquilibriumBatch(Sequence):
             item = self._items[index] = item()
         return item
 
+    def __reduce__(self):
+        """Pickled with every item assembled (what assembles one is a closure, which does not
+        travel) and the whole-batch arrays: a Dask or process task may return a batch."""
+        return (EquilibriumBatch, ([self[i] for i in range(len(self))], self._arrays))
+
     def torsors(self, joint: str) -> np.ndarray:
         """Torsor of ``joint`` for every case, (N, 6) [m, rad] (NaN for failed cases)."""
         if self._arrays is not None and joint in self._arrays["torsor_maps"]:

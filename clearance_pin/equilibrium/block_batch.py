@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import fields, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -33,10 +33,12 @@ from .blocks import (
     closed_forms,
     reduced_unknowns,
 )
+from .cache import LeastRecentlyUsed
 from .linear_answer import assemble_linear
 from .load_table import LoadTable, body_wrenches, load_table
 from .prepared import PreparedGeometry, prepared_geometry
 from .reduction import loaded_problem
+from .tree_point import TreePoint
 from .tree_trajectory import Objectives, objectives_of, tree_gradients, tree_maps
 
 if TYPE_CHECKING:
@@ -45,11 +47,17 @@ if TYPE_CHECKING:
     from .result import Equilibrium
 
 CHUNK = 1024  # cases per vectorised pass (its arrays stay in the cache)
+ANSWERS_KEPT = 64  # assembled items a batch keeps (the others are assembled again when read)
 
 
 class BlockBatch(EquilibriumBatch):
     """An :class:`~.batch.EquilibriumBatch` whose closed-form cases live in arrays: an item is
-    assembled when it is read (``build(i)``), the whole-batch properties read the arrays."""
+    assembled when it is read (``build(i)``), the whole-batch properties read the arrays.
+
+    The batch keeps the last :data:`ANSWERS_KEPT` items it assembled, not every one: an answer
+    holds some kB (its configuration, contacts, lazily read parts), so a read trajectory of 1e5
+    points would hold hundreds of MB; an item read again after that is assembled again, with the
+    same numbers (the arrays and the configuration determine it)."""
 
     def __init__(
         self,
@@ -64,15 +72,32 @@ class BlockBatch(EquilibriumBatch):
         self._closed = closed
         self._energies = energies
         self._build = build
+        self._assembled: LeastRecentlyUsed[int, Equilibrium] = LeastRecentlyUsed(ANSWERS_KEPT)
 
     def __getitem__(self, index: Any) -> Any:
         if isinstance(index, slice):
             return [self[i] for i in range(*index.indices(len(self)))]
         item = self._items[index]  # an IndexError for an index out of range
-        if item is None:
+        if item is None:  # a closed-form case: assembled from the arrays, the latest few kept
             position = int(index) % len(self._items)
-            item = self._items[position] = self._build(position)
+            item = self._assembled.get(position)
+            if item is None:
+                item = self._assembled[position] = self._build(position)
         return item
+
+    def __reduce__(self):  # the arrays and the assembler travel, not assembled items
+        arrays = self._arrays or {}
+        return (
+            BlockBatch,
+            (
+                self._items,
+                arrays["x"],
+                self._closed,
+                self._energies,
+                arrays["torsor_maps"],
+                self._build,
+            ),
+        )
 
     @property
     def energy(self) -> Array:
@@ -126,7 +151,7 @@ def solve_load_cases(
         structure,
         objectives,
         table.valid,
-        lambda i: prepared,
+        False,
     )
 
 
@@ -192,9 +217,6 @@ def solve_configurations(
     gradients = tree_gradients(maps, rotations, translations, wrenches)
     objectives = objectives_of(prepared, gradients, wrenches, moments)
 
-    def prepared_at(i: int) -> PreparedGeometry:
-        return prepared_geometry(mechanism, configurations[i])
-
     return _finish(
         mechanism,
         cases,
@@ -205,7 +227,7 @@ def solve_configurations(
         structure,
         objectives,
         table.valid,
-        prepared_at,
+        True,
     )
 
 
@@ -251,7 +273,7 @@ def _finish(
     structure: BlockStructure,
     terms: Objectives,
     valid: Mask,
-    prepared_at: Callable[[int], PreparedGeometry],
+    along: bool,
 ) -> EquilibriumBatch:
     """Closed forms and verification of every case; single solves for the rest."""
     closed, y, table, verified, neglected = _closed_and_verified(nominal, structure, terms)
@@ -273,13 +295,67 @@ def _finish(
     x = np.where(done[:, None], closed.x, np.nan)
     energies = np.where(done, np.einsum("ni,ni->n", terms.gradients, closed.x), np.nan)
     torsor_maps = {name: nominal.maps.joint_torsor[name] for name in mechanism.joints}
+    build = Assembler(mechanism, options, nominal, structure, terms, closed, y, table, cases, along)
+    return BlockBatch(items, x, done, energies, torsor_maps, build)
 
-    def build(i: int) -> Equilibrium:
+
+class Assembler:
+    """The :class:`~.result.Equilibrium` of closed-form case i from the batch's arrays (``along``:
+    at its own configuration, a :class:`~.tree_point.TreePoint` of the nominal geometry).
+
+    Pickled without the nominal geometry (maps of the whole tree): it is prepared again from the
+    mechanism where the batch is unpickled, by the same computation, so the answers assembled
+    there have the same numbers."""
+
+    def __init__(
+        self,
+        mechanism: Mechanism,
+        options: dict[str, Any],
+        nominal: PreparedGeometry,
+        structure: BlockStructure,
+        terms: Objectives,
+        closed: ClosedForms,
+        y: Array,
+        table: Array,
+        cases: Cases,
+        along: bool,
+    ):
+        self.mechanism, self.options, self.nominal = mechanism, options, nominal
+        self.structure, self.terms, self.closed, self.y, self.table = (
+            structure,
+            terms,
+            closed,
+            y,
+            table,
+        )
+        self.cases, self.along = cases, along
+
+    def __call__(self, i: int) -> Equilibrium:
+        nominal = self.nominal
+        if nominal is None:  # unpickled
+            nominal = self.nominal = prepared_geometry(self.mechanism)
+        case_loads, q = self.cases[i]
+        # a point of a trajectory: the nominal geometry moved there (no maps kept per point)
+        prepared = (
+            cast(PreparedGeometry, TreePoint(nominal, self.mechanism.configure(q)))
+            if self.along
+            else nominal
+        )
         return _item(
-            mechanism, options, prepared_at(i), structure, terms, closed, y, table, cases[i][0], i
+            self.mechanism,
+            self.options,
+            prepared,
+            self.structure,
+            self.terms,
+            self.closed,
+            self.y,
+            self.table,
+            case_loads,
+            i,
         )
 
-    return BlockBatch(items, x, done, energies, torsor_maps, build)
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "nominal": None}
 
 
 def _closed_and_verified(

@@ -14,13 +14,59 @@ the receiving process), and a mechanism with other dimensions starts with an emp
 
 from __future__ import annotations
 
+import contextlib
 import threading
 from collections import OrderedDict
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 import pinocchio as pin
 
+from ..errors import ArgumentError
+
 GEOMETRIES_KEPT = 64  # prepared configurations per mechanism (a trajectory re-visits few)
+GRAVITIES_KEPT = 16  # gathered gravity wrenches per prepared configuration (a tilting base)
+BACKENDS_KEPT = 16  # built optimisers per mechanism (one per structure, backend and tol)
+EXACT_PROBLEMS_KEPT = 16  # built exact problems per mechanism (one per structure and tol)
+
+Key = TypeVar("Key")
+Value = TypeVar("Value")
+
+
+class LeastRecentlyUsed(OrderedDict[Key, Value], Generic[Key, Value]):
+    """A dict that keeps at most ``limit`` entries: reading one (``get``, ``[key]``) marks it as
+    recently used, and storing beyond the limit drops the least recently used first.
+
+    A key that varies without end (a gravity vector that follows a tilting base, a ``tol``
+    swept by a study) would otherwise keep one entry each for the life of the mechanism."""
+
+    def __init__(self, limit: int):
+        super().__init__()
+        if limit < 1:
+            raise ArgumentError("limit", "at least 1 entry kept", limit)
+        self.limit = limit
+
+    def __getitem__(self, key: Key) -> Value:
+        value = super().__getitem__(key)
+        with contextlib.suppress(KeyError):  # dropped by another thread meanwhile
+            self.move_to_end(key)
+        return value
+
+    def get(self, key: Key, default: Any = None) -> Any:
+        """The value of ``key`` (marked as recently used), or ``default``."""
+        try:
+            return self[key]
+        except KeyError:
+            return default
+
+    def __setitem__(self, key: Key, value: Value) -> None:
+        super().__setitem__(key, value)
+        with contextlib.suppress(KeyError):
+            self.move_to_end(key)
+            while len(self) > self.limit:
+                self.popitem(last=False)
+
+    def __reduce__(self):  # pickled with its limit (OrderedDict's own would drop it)
+        return (type(self), (self.limit,), None, None, iter(self.items()))
 
 
 class SolveCache:
@@ -35,8 +81,10 @@ class SolveCache:
         warm: structure signature -> the last verified cone solution (warm starts).
         warm_bets: structure signature -> whether warm starts pay (:class:`.cone_solver.WarmBet`).
         projection_hints: structure signature -> active sets that needed the projected Newton.
-        exact_problems: key -> built :class:`.exact.ExactProblem`.
-        backends: (backend name, signature, tol) -> built optimiser.
+        exact_problems: key -> built :class:`.exact.ExactProblem` (at most
+            :data:`EXACT_PROBLEMS_KEPT`, least recently used dropped first).
+        backends: (backend name, signature, tol) -> built optimiser (at most
+            :data:`BACKENDS_KEPT`, least recently used dropped first).
         check_shapes: coal shapes of the geometric check, built once.
         output_points: (loaded points, outputs asked for) -> the output points of a solve.
     """
@@ -45,14 +93,14 @@ class SolveCache:
         self._model = model
         self._threads = threading.local()
         self.lock = threading.RLock()
-        self.geometries: OrderedDict[Any, Any] = OrderedDict()
+        self.geometries: LeastRecentlyUsed[Any, Any] = LeastRecentlyUsed(GEOMETRIES_KEPT)
         self.tree_geometry: Any = None
         self.geometry_terms: dict[int, tuple[Any, Any]] = {}
         self.warm: dict[tuple, Any] = {}
         self.warm_bets: dict[tuple, Any] = {}
         self.projection_hints: dict[tuple, set[bytes]] = {}
-        self.exact_problems: dict[tuple, Any] = {}
-        self.backends: dict[tuple, Any] = {}
+        self.exact_problems: LeastRecentlyUsed[tuple, Any] = LeastRecentlyUsed(EXACT_PROBLEMS_KEPT)
+        self.backends: LeastRecentlyUsed[tuple, Any] = LeastRecentlyUsed(BACKENDS_KEPT)
         self.check_shapes: dict[Any, Any] = {}
         self.output_points: dict[tuple, tuple] = {}
 
@@ -67,19 +115,13 @@ class SolveCache:
     def geometry(self, key):
         """The prepared geometry kept for ``key`` (marked as recently used), or None."""
         with self.lock:
-            prepared = self.geometries.get(key)
-            if prepared is not None:
-                self.geometries.move_to_end(key)
-            return prepared
+            return self.geometries.get(key)
 
     def keep_geometry(self, key, prepared) -> None:
         """Keep ``prepared`` for ``key``, dropping the least recently used beyond the limit (and
         the terms of the geometries no longer kept)."""
         with self.lock:
             self.geometries[key] = prepared
-            self.geometries.move_to_end(key)
-            while len(self.geometries) > GEOMETRIES_KEPT:
-                self.geometries.popitem(last=False)
             live = {id(p.geometry) for p in self.geometries.values()}
             if self.tree_geometry is not None:
                 live.add(id(self.tree_geometry))
@@ -93,4 +135,11 @@ class SolveCache:
         SolveCache.__init__(self, state["model"])
 
 
-__all__ = ["GEOMETRIES_KEPT", "SolveCache"]
+__all__ = [
+    "BACKENDS_KEPT",
+    "EXACT_PROBLEMS_KEPT",
+    "GEOMETRIES_KEPT",
+    "GRAVITIES_KEPT",
+    "LeastRecentlyUsed",
+    "SolveCache",
+]

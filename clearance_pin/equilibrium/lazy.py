@@ -13,6 +13,10 @@ import numpy as np
 import pinocchio as pin
 
 
+def _computed():
+    raise AssertionError("computed once")  # pragma: no cover (the value is kept)
+
+
 class LazyMapping(Mapping):
     """A read-only mapping computed by ``compute()`` on first access (for answers a caller
     rarely reads, such as every body's motion after each of thousands of re-solves)."""
@@ -24,6 +28,7 @@ class LazyMapping(Mapping):
     def _get(self) -> dict:
         if self._value is None:
             self._value = self._compute()
+            self._compute = _computed  # what it read (a whole geometry, maybe) is let go
         return self._value
 
     def __getitem__(self, key):
@@ -54,6 +59,7 @@ class LazySequence(Sequence):
     def _get(self) -> tuple:
         if self._value is None:
             self._value = tuple(self._compute())
+            self._compute = _computed  # what it read is let go
         return self._value
 
     def __len__(self) -> int:

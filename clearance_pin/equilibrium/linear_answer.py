@@ -96,17 +96,14 @@ def linear_equilibrium(
     iterations, polished), ``times`` = (build, solve) [s]; contacts and body motions are computed
     when read (:mod:`.lazy`)."""
     mechanism = prepared.mechanism
-    template = prepared.__dict__.get("_answer_template")
+    owner = getattr(prepared, "nominal", prepared)  # the points of a trajectory share one
+    template = owner.__dict__.get("_answer_template")
     if template is None:
-        template = prepared.__dict__["_answer_template"] = FieldTemplate(
-            Equilibrium,
-            {
-                "formulation": "linear",
-                "mechanism": mechanism,
-                "configuration": prepared.configuration,
-            },
+        template = owner.__dict__["_answer_template"] = FieldTemplate(
+            Equilibrium, {"formulation": "linear", "mechanism": mechanism}
         )
     equilibrium, state = template.new()
+    state["configuration"] = prepared.configuration
     state["status"], state["solver_status"], state["iterations"], state["polished"] = outcome
     state["torsors"] = dict(zip(prepared.joint_names, torsor_array))
     state["body_motions"] = LazyMapping(
@@ -131,7 +128,7 @@ def _contacts(prepared: PreparedGeometry, gaps, force_rows, multipliers) -> tupl
     active = (gaps <= ACTIVE_RELATIVE_GAP * bounds) | (
         (multipliers > 0.0) & (gaps <= 1e-6 * bounds)
     )
-    centres = prepared.maps.joint_centre
+    centres = prepared.joint_centres()
     return tuple(
         Contact(
             c.joint,

@@ -25,6 +25,7 @@ import pinocchio as pin
 
 from ..model.loads import Gravity
 from ..numerics import column_space, null_space
+from .cache import GRAVITIES_KEPT, LeastRecentlyUsed
 from .kkt import UNLOADED
 from .lazy import LazySequence
 from .load_terms import gather_body_loads
@@ -37,6 +38,7 @@ from .reduction import (
     with_scaled_load,
 )
 from .small_displacement import SmallDisplacementMaps, build_maps
+from .tree_point import body_motions
 
 
 class PreparedGeometry:
@@ -70,7 +72,10 @@ class PreparedGeometry:
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
         self._placements: dict = {}  # loaded links and masses at this configuration (load_terms)
-        self._gravity_wrenches: dict[bytes, np.ndarray] = {}  # per acceleration, at this q
+        # per acceleration at this q: the few most recent (a tilting base gives a new one per solve)
+        self._gravity_wrenches: LeastRecentlyUsed[bytes, np.ndarray] = LeastRecentlyUsed(
+            GRAVITIES_KEPT
+        )
 
     @property
     def signature(self) -> tuple:
@@ -102,7 +107,8 @@ class PreparedGeometry:
         """Body wrenches at the world origin (bodies, 6) [N, N m] of ``loads`` (ground excluded),
         from the one gathering of loads per body (:func:`~.load_terms.gather_body_loads`); a
         gravity's, the same at this configuration for every solve, gathered once per
-        acceleration (the wrenches add up)."""
+        acceleration (the wrenches add up) and kept for the :data:`~.cache.GRAVITIES_KEPT` most
+        recent accelerations."""
         others = [load for load in loads if type(load) is not Gravity]
         wrench = self._gathered(others)
         if len(others) < len(loads):
@@ -190,16 +196,11 @@ class PreparedGeometry:
 
     def body_motions(self, twists: np.ndarray, names) -> dict:
         """Body name -> (translation of its frame origin [m], rotation [rad]), world axes."""
-        w, p = twists[:, 3:], self._origins
-        moved = twists[:, :3] + np.stack(
-            (
-                w[:, 1] * p[:, 2] - w[:, 2] * p[:, 1],
-                w[:, 2] * p[:, 0] - w[:, 0] * p[:, 2],
-                w[:, 0] * p[:, 1] - w[:, 1] * p[:, 0],
-            ),
-            axis=1,
-        )
-        return {names[i]: (moved[i], twists[i, 3:]) for i in range(1, self.bodies)}
+        return body_motions(twists, self._origins, names)
+
+    def joint_centres(self) -> dict[str, pin.SE3]:
+        """Joint name -> clearance frame placement oM_c in the world at this configuration."""
+        return self.maps.joint_centre
 
     def contact_state(self, x: np.ndarray, multipliers, signs, objective_scale):
         r"""Gap of every contact [m], and the contact forces [N] (clearance frame) as rows stacked
@@ -414,10 +415,12 @@ def prepared_geometry(mechanism, q=None) -> PreparedGeometry:
             if prepared is not None:
                 return prepared
             configuration = mechanism.configure(q)
-            data = cache.data
-            pin.framesForwardKinematics(mechanism.model, data, configuration.q)
+            placed = configuration  # a tree's maps read its joint placements only
+            if mechanism.loop_joints:
+                placed = cache.data
+                pin.framesForwardKinematics(mechanism.model, placed, configuration.q)
             maps = build_maps(
-                mechanism.model, data, mechanism.tree_joints, mechanism.loop_joints, configuration
+                mechanism.model, placed, mechanism.tree_joints, mechanism.loop_joints, configuration
             )
             prepared = PreparedGeometry(mechanism, configuration, maps, _reduced(mechanism, maps))
             cache.keep_geometry(key, prepared)

@@ -18,6 +18,7 @@ closure holds by construction). The point P of body i moves by :math:`v_i + \ome
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -82,12 +83,13 @@ def _basis(joint: TreeJoint) -> np.ndarray:
 
 def build_maps(
     model: pin.Model,
-    data: pin.Data,
+    data: Any,
     tree_joints: tuple[TreeJoint, ...],
     loop_joints: tuple[LoopJoint, ...],
     configuration=None,
 ) -> SmallDisplacementMaps:
-    """Build the maps at the configuration already placed in ``data`` (oMi and oMf up to date).
+    """Build the maps at the configuration already placed in ``data`` (oMi and oMf up to date:
+    a ``pin.Data``, or a :class:`~clearance_pin.mechanism.Configuration`).
 
     ``configuration``: the :class:`~clearance_pin.mechanism.Configuration` placed in ``data``:
     a loop joint's torsor is taken at its child-side clearance frame (``bMc``, where the journal,

@@ -204,7 +204,7 @@ def _singular_position(mechanism, prepared: PreparedGeometry) -> bool:
     nearby = pin.integrate(model, prepared.configuration.q, SINGULAR_PROBE * step / norm(step))
     try:
         configuration = mechanism.configure(nearby)
-        data = model.createData()
+        data = mechanism.cache.data  # this thread's
         pin.framesForwardKinematics(model, data, configuration.q)
         maps = build_maps(model, data, mechanism.tree_joints, mechanism.loop_joints, configuration)
         there = reduce_geometry(maps, mechanism.joints, mechanism.length_scale())

@@ -214,7 +214,7 @@ def idle_motion_count(mechanism: Mechanism) -> int:
     cached: tuple[tuple[object, ...], int] | None = getattr(mechanism, "_idle_motions", None)
     if cached is not None and all(a is b for a, b in zip(cached[0], owner)):
         return cached[1]
-    data = mechanism.model.createData()
+    data = mechanism.cache.data  # this thread's: no second Pinocchio data (cubic in nv)
     motions = passive_motions(mechanism)
     length = max(mechanism.length_scale(), 1e-300)
     jacobian, _ = _scaled_jacobian(mechanism, data, mechanism.q_nominal, motions, length)
@@ -297,7 +297,7 @@ def close_loops(
             iteration did not settle.
     """
     model = mechanism.model
-    data = model.createData()
+    data = mechanism.cache.data  # this thread's (its caller places it again after the walk)
     motions = passive_motions(mechanism)
     length = max(mechanism.length_scale(), 1e-300)
     scaled_basis = _scaled_basis(mechanism, motions, length)
