@@ -88,7 +88,8 @@ def read_mjcf(
     _add_missing_sites(model, placements)
     check_placements(model, placements, source)
     block = beside or ClearanceBlock(empty_block(), source)
-    contents = read_block(block.source, block.element, model, joint_table(model, "MJCF", SUPPORTED))
+    table = joint_table(model, "MJCF", SUPPORTED)
+    contents = read_block(block.source, block.element, model, table, block.kind)
     geometry = MjcfGeometry(rewritten, source)
     return describe(
         model,

@@ -108,7 +108,7 @@ def _read(
         )
     block = beside or ClearanceBlock(own if own is not None else empty_block(), source)
     types = {name: str(element.get("type")) for name, element in reader.urdf_joints.items()}
-    contents = read_block(block.source, block.element, model, JointTable(types, "URDF"))
+    contents = read_block(block.source, block.element, model, JointTable(types, "URDF"), block.kind)
     collision = CollisionGeometry(text, source, directories) if reader.has_collision() else None
     return describe(
         model,

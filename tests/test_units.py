@@ -1,0 +1,265 @@
+"""Units that cannot be forgotten silently (issue 21, item 2).
+
+Every length of a clearance file is judged against the mechanism's own geometry (the distances
+between its joint centres and frames in the URDF), not against the file's other numbers
+(clearance_pin/model/length_check.py). The matrix: every length field of the block, written in
+each of m, mm and um, in a file that declares each unit. A mis-declared field (written in one
+unit, read in another) must give a ModelError or a SuspectValueWarning naming the field and its
+element; a correct declaration none at all.
+
+The reference values are physical, not the library's: a 10 um radial play, 5 um axial play,
+30-60 mm journals and blocks, a force 50-300 mm from its link frame, a 0.1 mm tolerance, a 0.2 m
+slide position. The mechanisms: the bundled 6R arm and slider-crank, a carriage on a rail written
+here, and the UR5 of example-robot-data (untouched vendor URDF, skipped when not installed).
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import warnings
+from dataclasses import dataclass
+from decimal import Decimal
+from pathlib import Path
+
+import pytest
+from conftest import MODELS, ROOT
+
+import clearance_pin as cp
+
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import arms  # benchmarks/arms.py: where the vendor files are
+
+UNITS = {"m": 0, "mm": -3, "um": -6}
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """A model file and a clearance file template whose fields {name} hold lengths [m]."""
+
+    name: str
+    urdf: str  # the URDF's text, without a block of its own
+    template: str  # XML clearance file; {unit} and one {field} per length
+    values: dict[str, float]  # field -> its true value [m]
+    elements: dict[str, str]  # field -> the name of the element that carries it
+
+
+def _without_block(text: str) -> str:
+    return re.sub(r"<clearance_pin>.*?</clearance_pin>", "", text, flags=re.S)
+
+
+ARM_6R = Mechanism(
+    "arm_6r",
+    _without_block((MODELS / "arm_6r.urdf").read_text()),
+    """<clearance_pin unit="{unit}">
+  <joint name="shoulder_pan" type="revolute" radial_clearance="{radial_clearance}"
+         axial_clearance="{axial_clearance}" length="{length}" driven="true"/>
+  <joint name="elbow" type="revolute" diametral_clearance="{diametral_clearance}"
+         axial_clearance="5" length="30000" driven="true" q="1.2"/>
+  <force link="tool" point="0 0 {point}" value="0 0 -50"/>
+  <dimension name="upper_arm" joint="elbow" direction="1 0 0" tolerance="{tolerance}"/>
+</clearance_pin>""",
+    {
+        "radial_clearance": 1e-5,
+        "axial_clearance": 5e-6,
+        "length": 0.03,
+        "diametral_clearance": 2e-5,
+        "point": 0.05,
+        "tolerance": 1e-4,
+    },
+    {
+        "radial_clearance": "shoulder_pan",
+        "axial_clearance": "shoulder_pan",
+        "length": "shoulder_pan",
+        "diametral_clearance": "elbow",
+        "point": "tool",
+        "tolerance": "upper_arm",
+    },
+)
+
+SLIDER_CRANK = Mechanism(
+    "slider_crank",
+    _without_block((MODELS / "slider_crank.urdf").read_text()),
+    """<clearance_pin unit="{unit}">
+  <joint name="crank_pivot" type="planar_revolute" radial_clearance="50" driven="true"
+         q="-1.0471975511965976"/>
+  <joint name="pin_A" type="planar_revolute" radial_clearance="50" q="1.41637017008474"/>
+  <joint name="pin_B" type="planar_revolute" radial_clearance="50" q="-0.3691726188881423"/>
+  <loop_joint name="slide" type="prismatic" frame_a="guide" frame_b="slider"
+              radial_clearance="{radial_clearance}" play_z="{play_z}" length="{length}"
+              width="{width}" height="{height}" axis="1 0 0"/>
+  <dimension name="r2" joint="pin_A" direction="1 0 0" tolerance="{tolerance}"/>
+  <force link="slider" value="-100 0 0"/>
+  <force link="rod" point="{point} 0 0" value="0 -20 0"/>
+</clearance_pin>""",
+    {
+        "radial_clearance": 5e-5,
+        "play_z": 5e-5,
+        "length": 0.04,
+        "width": 0.02,
+        "height": 0.01,
+        "tolerance": 1e-4,
+        "point": 0.06,
+    },
+    {
+        "radial_clearance": "slide",
+        "play_z": "slide",
+        "length": "slide",
+        "width": "slide",
+        "height": "slide",
+        "tolerance": "r2",
+        "point": "rod",
+    },
+)
+
+CARRIAGE = Mechanism(
+    "carriage",
+    """<?xml version="1.0"?>
+<robot name="carriage">
+  <link name="base"/>
+  <link name="carriage"><inertial><mass value="2"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="arm"><inertial><mass value="1"/><origin xyz="0.15 0 0"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="tool"/>
+  <joint name="rail" type="prismatic">
+    <parent link="base"/><child link="carriage"/><axis xyz="1 0 0"/>
+    <limit lower="0" upper="0.5" effort="100" velocity="1"/>
+  </joint>
+  <joint name="pivot" type="revolute">
+    <parent link="carriage"/><child link="arm"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="100" velocity="1"/>
+  </joint>
+  <joint name="tool_mount" type="fixed">
+    <parent link="arm"/><child link="tool"/><origin xyz="0.3 0 0"/>
+  </joint>
+</robot>""",
+    """<clearance_pin unit="{unit}">
+  <joint name="rail" type="prismatic" radial_clearance="{radial_clearance}" play_z="{play_z}"
+         length="{length}" width="{width}" height="{height}" driven="true" q="{q}"/>
+  <joint name="pivot" type="revolute" radial_clearance="10" axial_clearance="5"
+         length="30000" driven="true" q="0.5"/>
+  <force link="arm" point="{point} 0 0" value="0 -10 0"/>
+</clearance_pin>""",
+    {
+        "radial_clearance": 2e-5,
+        "play_z": 3e-5,
+        "length": 0.06,
+        "width": 0.04,
+        "height": 0.02,
+        "q": 0.2,
+        "point": 0.3,
+    },
+    {
+        "radial_clearance": "rail",
+        "play_z": "rail",
+        "length": "rail",
+        "width": "rail",
+        "height": "rail",
+        "q": "rail",
+        "point": "arm",
+    },
+)
+
+UR5_URDF = "ur_description/urdf/ur5_robot.urdf"
+UR5 = Mechanism(
+    "ur5",
+    "",  # the vendor file, read as installed
+    """<clearance_pin unit="{unit}">
+  <joint name="shoulder_pan_joint" type="revolute" radial_clearance="{radial_clearance}"
+         axial_clearance="{axial_clearance}" length="{length}" driven="true" q="0.3"/>
+  <joint name="elbow_joint" type="revolute" diametral_clearance="{diametral_clearance}"
+         axial_clearance="5" length="30000" driven="true" q="1.2"/>
+  <force link="tool0" point="0 0 {point}" value="20 -30 -50"/>
+  <dimension name="upper_arm" joint="elbow_joint" direction="0 0 1" tolerance="{tolerance}"/>
+</clearance_pin>""",
+    ARM_6R.values,
+    {
+        "radial_clearance": "shoulder_pan_joint",
+        "axial_clearance": "shoulder_pan_joint",
+        "length": "shoulder_pan_joint",
+        "diametral_clearance": "elbow_joint",
+        "point": "tool0",
+        "tolerance": "upper_arm",
+    },
+)
+
+MECHANISMS = (ARM_6R, SLIDER_CRANK, CARRIAGE, UR5)
+# the fixed numbers of the templates are in um (radial 50, length 30000): they are rewritten
+# into the declared unit with the fields
+FIXED_UM = ("50", "5", "10", "30000")
+
+
+def _in_unit(value_m: float, unit: str) -> str:
+    """The decimal text of a length [m] in ``unit`` (exact: 1e-05 m is 10 um)."""
+    return format(Decimal(repr(value_m)).scaleb(-UNITS[unit]).normalize(), "f")
+
+
+def clearance_text(mechanism: Mechanism, declared: str, field: str, written: str) -> str:
+    """The mechanism's clearance file declaring ``declared``, every length in that unit except
+    ``field``, whose number is written in ``written``."""
+    values = {name: _in_unit(v, declared) for name, v in mechanism.values.items()}
+    values[field] = _in_unit(mechanism.values[field], written)
+    text = mechanism.template
+
+    def fixed(match: re.Match[str]) -> str:  # the template's fixed lengths (in um)
+        key, number = match.group(1), match.group(2)
+        return f'{key}="{_in_unit(float(number) * 1e-6, declared)}"'
+
+    text = re.sub(r'(radial_clearance|axial_clearance|length)="(\d+)"', fixed, text)
+    return text.format(unit=declared, **values)
+
+
+def model_path(mechanism: Mechanism, directory: Path) -> Path:
+    if mechanism.name == "ur5":
+        path = arms.vendor_file(UR5_URDF)
+        if path is None:
+            pytest.skip("example-robot-data is not installed (pip install clearance_pin[test])")
+        return path
+    path = directory / f"{mechanism.name}.urdf"
+    path.write_text(mechanism.urdf)
+    return path
+
+
+def outcome(model: Path, clearances: Path, field: str, element: str) -> tuple[str, list[str]]:
+    """("error" | "warning" | "silent", messages): what loading says, counting only messages
+    that name the field and its element."""
+    pattern = re.compile(rf"(?<![\w]){re.escape(field)}(?![\w])")
+    try:
+        with warnings.catch_warnings(record=True) as record:
+            warnings.simplefilter("always")
+            cp.load(model, clearances=clearances)
+    except cp.ModelError as error:
+        named = pattern.search(error.problem) and element in str(error)
+        return ("error" if named else "unnamed error", [str(error)])
+    messages = [str(w.message) for w in record if issubclass(w.category, cp.ClearancePinWarning)]
+    if any(pattern.search(m) and element in m for m in messages):
+        return "warning", messages
+    return ("silent" if not messages else "unnamed warning"), messages
+
+
+CELLS = [
+    (mechanism, field, written, declared)
+    for mechanism in MECHANISMS
+    for field in mechanism.values
+    for written in UNITS
+    for declared in UNITS
+]
+
+
+@pytest.mark.parametrize(
+    ("mechanism", "field", "written", "declared"),
+    CELLS,
+    ids=[f"{m.name}-{f}-{w}-read-{d}" for m, f, w, d in CELLS],
+)
+def test_unit_matrix(mechanism, field, written, declared, tmp_path):
+    """Written in one unit and read in another: refused or warned, naming the field and its
+    element. Written and read in the same unit: no warning and no error."""
+    model = model_path(mechanism, tmp_path)
+    clearances = tmp_path / "play.xml"
+    clearances.write_text(clearance_text(mechanism, declared, field, written))
+    result, messages = outcome(model, clearances, field, mechanism.elements[field])
+    if written == declared:
+        assert (result, messages) == ("silent", [])
+    else:
+        assert result in ("error", "warning"), (result, messages)
