@@ -263,3 +263,171 @@ def test_unit_matrix(mechanism, field, written, declared, tmp_path):
         assert (result, messages) == ("silent", [])
     else:
         assert result in ("error", "warning"), (result, messages)
+
+
+UNSTATED = [
+    (mechanism, field, written)
+    for mechanism in MECHANISMS
+    for field in mechanism.values
+    for written in UNITS
+]
+
+
+@pytest.mark.parametrize(
+    ("mechanism", "field", "written"),
+    UNSTATED,
+    ids=[f"{m.name}-{f}-{w}-no-unit-line" for m, f, w in UNSTATED],
+)
+def test_a_file_without_a_unit_line_is_read_in_metres(mechanism, field, written, tmp_path):
+    """A clearance file without a unit line is read in metres: a field written in m loads
+    silently, one written in mm or um (1000x or 1e6x too large) is refused, naming it."""
+    model = model_path(mechanism, tmp_path)
+    clearances = tmp_path / "play.xml"
+    text = clearance_text(mechanism, "m", field, written)
+    clearances.write_text(text.replace(' unit="m"', ""))
+    result, messages = outcome(model, clearances, field, mechanism.elements[field])
+    if written == "m":
+        assert (result, messages) == ("silent", [])
+    else:
+        assert result == "error", (result, messages)
+        assert "no unit line" in messages[0]
+
+
+# -- files without a unit line, single-field mistakes, the other routes ------------------------
+
+
+def _docs_ur5(language: str) -> str:
+    """The UR5 clearance file of docs/model-format.md (the fenced block after its marker)."""
+    text = (ROOT / "docs" / "model-format.md").read_text()
+    after = text.split(f"<!-- ur5 clearance file: {language} -->", 1)[1]
+    match = re.search(r"```\w*\n(.*?)```", after, re.S)
+    assert match is not None
+    return match.group(1)
+
+
+def test_the_docs_ur5_toml_without_its_unit_line_is_refused(tmp_path):
+    """Issue 21: the docs' UR5 TOML with ``unit = "um"`` deleted solved to a 25.6 m tool
+    displacement with ok=True. Its 10 (um) radial play read as 10 m is 73.6x the part of
+    shoulder_pan_joint: the shoulder link, whose joint centres are 0.13585 m apart in the vendor
+    URDF (shoulder_lift_joint's origin xyz="0.0 0.13585 0.0"); read in um it would be normal."""
+    urdf = model_path(UR5, tmp_path)
+    text = _docs_ur5("toml")
+    assert 'unit = "um"' in text
+    clearances = tmp_path / "ur5_play.toml"
+    clearances.write_text(text.replace('unit = "um"', ""))
+    with pytest.raises(cp.ModelError) as caught:
+        cp.load(urdf, clearances=clearances)
+    problem = caught.value.problem
+    assert "shoulder_pan_joint" in caught.value.element
+    assert "radial_clearance 10 m is 73.6x the part it joins (0.13585 m" in problem
+    assert "was it written in um?" in problem and "no unit line" in problem
+
+
+def test_the_docs_ur5_xml_without_its_unit_attribute_is_refused(tmp_path):
+    """The XML form in mm without unit="mm": its plays (0.010 m) are 7x the normal band only,
+    but its 30 (mm) journal read as 30 m is 221x the 0.13585 m part: refused, naming length
+    and mm."""
+    urdf = model_path(UR5, tmp_path)
+    text = _docs_ur5("xml")
+    assert '<clearance_pin unit="mm">' in text
+    clearances = tmp_path / "ur5_play.xml"
+    clearances.write_text(text.replace('<clearance_pin unit="mm">', "<clearance_pin>"))
+    with pytest.raises(cp.ModelError, match=r"length 30 m is 221x the part it joins") as caught:
+        cp.load(urdf, clearances=clearances)
+    assert "was it written in mm?" in caught.value.problem
+
+
+@pytest.mark.parametrize("language", ["xml", "toml"])
+def test_the_docs_ur5_files_load_silently(language, tmp_path):
+    """With their unit line, both docs files load with no warning."""
+    urdf = model_path(UR5, tmp_path)
+    clearances = tmp_path / f"ur5_play.{language}"
+    clearances.write_text(_docs_ur5(language))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cp.ClearancePinWarning)
+        cp.load(urdf, clearances=clearances)
+
+
+def test_a_journal_length_in_mm_in_a_metre_urdf_block_warns():
+    """arm_6r.urdf's own block (SI) with one journal typed length="30" (mm meant): 30 m is 221x
+    shoulder_pan's part (the shoulder, 0.136 m between its joint centres in the file), a
+    warning naming the joint, length and mm (a URDF is SI: a block inside one is only warned
+    unless the value is out by 1000x)."""
+    text = (MODELS / "arm_6r.urdf").read_text()
+    old = '<joint name="shoulder_pan" type="revolute" radial_clearance="1e-05" length="0.03"'
+    assert old in text
+    with pytest.warns(cp.SuspectValueWarning) as record:
+        cp.loads(text.replace(old, old.replace('length="0.03"', 'length="30"')))
+    messages = [str(w.message) for w in record if "length 30 m" in str(w.message)]
+    assert len(messages) == 1
+    assert "<joint name='shoulder_pan'>" in messages[0]
+    assert "221x the part it joins (0.136 m" in messages[0]
+    assert "was it written in mm?" in messages[0]
+
+
+def test_a_journal_length_in_mm_in_a_file_without_a_unit_line_is_refused(tmp_path):
+    """The same journal in a clearance file that states no unit: refused."""
+    model = model_path(ARM_6R, tmp_path)
+    text = clearance_text(ARM_6R, "m", "length", "mm").replace(' unit="m"', "")
+    clearances = tmp_path / "play.xml"
+    clearances.write_text(text)
+    with pytest.raises(cp.ModelError, match=r"length 30 m is 221x") as caught:
+        cp.load(model, clearances=clearances)
+    assert "no unit line" in caught.value.problem
+
+
+def test_a_whole_file_in_the_wrong_unit_is_named_at_every_field(tmp_path):
+    """arm_6r's file written in um but declaring mm: every length is 1000x too large. In a file
+    that states its unit these are warnings (out by less than 1000x): the journals (30 m, 221x
+    their part) and the force point (50 m, 72x the arm's 0.691 m extent at its nominal pose),
+    each naming um. The plays (10 mm) are only 7x beyond the normal band of their 0.136 m part
+    and not measured against a journal out of proportion: the journal shows the mistake."""
+    model = model_path(ARM_6R, tmp_path)
+    values = {name: _in_unit(v, "um") for name, v in ARM_6R.values.items()}
+    text = re.sub(
+        r'(radial_clearance|axial_clearance|length)="(\d+)"', r'\1="\2"', ARM_6R.template
+    ).format(unit="mm", **values)
+    clearances = tmp_path / "play.xml"
+    clearances.write_text(text)
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        cp.load(model, clearances=clearances)
+    messages = " | ".join(str(w.message) for w in record)
+    for field in ("length", "point"):
+        assert f"{field} " in messages, field
+    assert "was it written in um?" in messages
+
+
+def test_a_dict_in_micrometres_is_refused():
+    """from_model's dict is SI: a 10 (um meant) radial play on arm_6r's shoulder_pan is 73.5x
+    its 0.136 m part, 7350x beyond the normal 1e-2: refused, whatever the source."""
+    model = cp.load(MODELS / "arm_6r.urdf").model
+    clearances = {
+        "shoulder_pan": {"type": "revolute", "radial_clearance": 10, "length": 0.03},
+    }
+    with pytest.raises(cp.ModelError, match=r"radial_clearance 10 m is 73\.5x") as caught:
+        cp.from_model(model, clearances=clearances)
+    assert "a dict of clearances is in metres" in caught.value.problem
+
+
+def test_an_mjcf_model_is_judged_by_its_own_placements(tmp_path):
+    """Beside an MJCF file the reference is the MJCF's geometry: the two-link arm of
+    tests/test_mjcf.py (0.3 m between shoulder and elbow) with its clearance file, written in
+    mm, declaring m: the 25 (mm) journal read as 25 m is 83x the part, the force point 250 m;
+    both warned naming mm. Declaring mm, as written: silent."""
+    from test_mjcf import ARM_MJCF, ARM_PLAY
+
+    model = tmp_path / "arm.xml"
+    model.write_text(ARM_MJCF)
+    clearances = tmp_path / "play.xml"
+    clearances.write_text(ARM_PLAY.replace('unit="mm"', 'unit="m"'))
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        cp.load(model, clearances=clearances)
+    messages = " | ".join(str(w.message) for w in record)
+    assert "length 25 m is 83.3x the part it joins (0.3 m" in messages
+    assert "point 250 m" in messages and "was it written in mm?" in messages
+    clearances.write_text(ARM_PLAY)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cp.ClearancePinWarning)
+        cp.load(model, clearances=clearances)

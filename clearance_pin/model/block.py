@@ -12,6 +12,8 @@ Units: every value is SI unless the block says otherwise with ``unit="mm"`` (``m
 ``um``; default ``m``): then every length of the block (clearances, journal and block lengths,
 force points, nominal values of prismatic joints, toleranced lengths) is in that unit and
 converted to metres here; angles stay in radians, forces in N, torques in N m, gravity in m/s^2.
+Every length is then judged against the model's own geometry, so a forgotten or wrong unit is
+refused or warned (:mod:`~clearance_pin.model.length_check`).
 
 Every problem is a :class:`~clearance_pin.errors.ModelError` naming the file, the element and the
 problem.

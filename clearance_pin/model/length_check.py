@@ -19,40 +19,47 @@ Reference sizes [m] (all from the URDF or MJCF placements, none from the block):
 
 Each kind of length has a band of ratios to its reference that real mechanisms fill:
 
-==========================  =========================  ======================================
-length                      normal ratio               why
-==========================  =========================  ======================================
-play (radial, axial,        1e-6 .. 1e-2 of the part   fits from H6/g5 to loose ones; and
-``play_z``; diametral / 2)  1e-5 .. 1e-2 of its own    1e-4 .. 5e-3 of the journal for ISO
-                            journal or block length    286 fits (H7/g6 .. H11/c11 at 30 mm)
-journal or block length,    1e-2 .. 3 of the part      a bearing is shorter than its part;
-``width``, ``height``                                  a few times the part is already odd
-force point (its distance   1e-2 .. 1 of the extent    a load acts on the mechanism
+==========================  ===========================  ====================================
+length                      normal ratio                 why
+==========================  ===========================  ====================================
+play (radial, axial,        1e-6 .. 1e-2 of the part;    fits from H6/g5 to loose ones; ISO
+``play_z``; diametral / 2)  1e-4 .. 1e-2 of its own      286 fits (H6/g5 .. H11/c11 at 30 mm)
+                            journal or block length      give 1e-4 .. 5e-3 of the journal
+journal or block length,    1e-2 .. 3 of the part        a bearing is shorter than its part;
+``width``, ``height``                                    a few times the part is already odd
+force point (its distance   1e-2 .. 1 of the extent      a load acts on the mechanism
 from the link frame)
-nominal ``q`` of a          up to 1 of its URDF range  a slide stays on its guide
-prismatic joint             (of the extent without)
-half tolerance              1e-6 .. 3e-2 of the        ISO 286 IT01 at 500 mm .. IT18
-                            nominal size
-==========================  =========================  ======================================
+nominal ``q`` of a          1e-2 .. 1 of its largest     a slide stays on its guide
+prismatic joint             URDF limit (of the extent)
+tolerance T (full width)    IT1 at the nominal size ..   IT01, IT0 are gauge blocks; beyond
+of a length dimension       0.2 of the nominal size      T/2 = 10 %: plausibility's warning
+==========================  ===========================  ====================================
+
+A journal is a reference of its plays only when it is in proportion itself (a journal in the
+wrong unit is named, not the plays measured with it). A zero is never judged, nor a force point
+within round-off of its frame.
 
 A value outside its band by :data:`OUT_OF_PROPORTION` (10x) or more is out of proportion. How
 sure that is decides the outcome:
 
 - :class:`~clearance_pin.errors.ModelError` when the evidence leaves no design that explains the
-  value: outside the band by :data:`CERTAIN` (1000x, a whole unit step beyond the widest normal
-  value: a play ten times its part, a journal 3000 times it); or out of proportion in a
-  clearance *file* without a ``unit`` line, whose user never said the lengths were metres (the
-  docs' own UR5 file without its ``unit = "um"`` line gave a 25.6 m tool displacement with
-  ``ok=True``; a URDF is SI by its own rules, so a block inside one stays a warning);
-- :class:`~clearance_pin.errors.SuspectValueWarning` otherwise: a single odd value in a file that
-  states its unit may be meant.
+  value: too large by :data:`CERTAIN` (1000x, a whole unit step beyond the widest normal value: a
+  play ten times its part, a journal 3000 times it), or a journal or block that small; or too
+  large at all in a clearance *file* without a ``unit`` line, whose user never said the lengths
+  were metres (the docs' own UR5 file without its ``unit = "um"`` line gave a 25.6 m tool
+  displacement with ``ok=True``; a URDF is SI by its own rules, so a block inside one is warned,
+  and a dict is SI by the API's). Every refusal comes before any warning;
+- :class:`~clearance_pin.errors.SuspectValueWarning` otherwise: one odd value in a file that
+  states its unit may be meant, and a value too small (a point near its frame, a slide near its
+  zero, a very fine play or tolerance) breaks nothing.
 
-Plays too large for their part and half tolerances too wide for their size, when that is the
-whole finding, are left to the warnings of :mod:`~clearance_pin.model.plausibility` (the same
-value is not warned twice). The message names the element, the attribute, the value, the ratio
+Plays too large for their part and tolerances too wide for their size, when the warnings of
+:mod:`~clearance_pin.model.plausibility` name them already, are not warned twice; nor a prismatic
+``q`` beyond its URDF limits. The message names the element, the attribute, the value, the ratio
 and its reference, the unit that would make the value normal, and what the file says of its unit:
-``joint 'shoulder_pan': radial_clearance 10 m is 25x the part it joins (0.4 m); was it written in
-um? The file has no unit line: its lengths are read in metres``.
+``<joint name='shoulder_pan'>: radial_clearance 10 m is 73.6x the part it joins (0.13585 m; 1e-06
+.. 0.01 is normal); was it written in um? (the file has no unit line: its lengths are read in
+metres)``.
 """
 
 from __future__ import annotations
@@ -214,8 +221,10 @@ def _references(length: Length, geometry: Geometry) -> list[tuple[float, str, st
     extent = (geometry.extent, "the mechanism's extent")
     if length.kind == "play":
         found = [(part, basis, "play", known)]
-        if length.own_length > 0.0:
-            found.append((length.own_length, "its own length", "play/length", known))
+        # its journal is a reference only when it is in proportion itself (else it is named)
+        own = length.own_length
+        if own > 0.0 and (part <= 0.0 or _out_by(own / part, BANDS["size"]) < OUT_OF_PROPORTION):
+            found.append((own, "its own length", "play/length", known))
         return found
     if length.kind == "size":
         return [(part, basis, "size", known)]
@@ -335,21 +344,22 @@ def check_lengths(
     exponent = UNITS[unit] if unit is not None else 0
     note = unit_note(unit, kind)
     unstated = kind == "file" and unit is None
+    findings = [finding for length in lengths for finding in _findings(length, geometry)]
+    for finding in findings:  # refused before anything is warned
+        if finding.refused or (unstated and finding.too_large):
+            raise ModelError(source, finding.length.label, _message(finding, exponent, note))
     seen: set[tuple[str, str]] = set()
-    for length in lengths:
-        for finding in _findings(length, geometry):
-            if finding.refused or (unstated and finding.too_large):
-                raise ModelError(source, length.label, _message(finding, exponent, note))
-            key = (length.label, length.attribute)
-            if key in seen or _warned_elsewhere(finding):
-                continue
-            seen.add(key)
-            warnings.warn(
-                SuspectValueWarning(
-                    f"{source}: {length.label}: {_message(finding, exponent, note)}"
-                ),
-                stacklevel=stacklevel + 1,
-            )
+    for finding in findings:
+        key = (finding.length.label, finding.length.attribute)
+        if key in seen or _warned_elsewhere(finding):
+            continue
+        seen.add(key)
+        warnings.warn(
+            SuspectValueWarning(
+                f"{source}: {finding.length.label}: {_message(finding, exponent, note)}"
+            ),
+            stacklevel=stacklevel + 1,
+        )
 
 
 __all__ = ["BANDS", "CERTAIN", "OUT_OF_PROPORTION", "Geometry", "Length", "check_lengths"]
