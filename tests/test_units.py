@@ -431,3 +431,41 @@ def test_an_mjcf_model_is_judged_by_its_own_placements(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error", cp.ClearancePinWarning)
         cp.load(model, clearances=clearances)
+
+
+PENDULUM = """<?xml version="1.0"?>
+<robot name="pendulum">
+  <link name="base"/>
+  <link name="rod">
+    <inertial><mass value="1"/><origin xyz="0 0 -0.25"/>
+      <inertia ixx="0.02" iyy="0.02" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 -0.25"/><geometry><box size="0.02 0.02 0.5"/></geometry></collision>
+  </link>
+  <joint name="axle" type="revolute">
+    <parent link="base"/><child link="rod"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" effort="10" velocity="1"/>
+  </joint>
+  <clearance_pin>
+    <joint name="axle" type="revolute" radial_clearance="1e-05" axial_clearance="5e-06"
+           length="LENGTH" driven="true"/>
+  </clearance_pin>
+</robot>
+"""
+
+
+def test_a_lone_joint_is_judged_by_its_link_geometry():
+    """A pendulum on one axle has a single joint centre, so no distance between joint centres
+    gives its size: its 0.5 m collision box does (diagonal sqrt(0.02^2 + 0.02^2 + 0.5^2) =
+    0.5008 m). A 30 mm journal typed as 30 (m) is 59.9x that: warned, naming mm. Without the
+    box the journal cannot be judged; only the play measured against it looks odd."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cp.ClearancePinWarning)
+        cp.loads(PENDULUM.replace("LENGTH", "0.03"))
+    with pytest.warns(cp.SuspectValueWarning, match=r"length 30 m is 59\.9x the part it joins"):
+        cp.loads(PENDULUM.replace("LENGTH", "30"))
+    without_box = re.sub(r"<collision>.*?</collision>", "", PENDULUM)
+    with pytest.warns(cp.SuspectValueWarning) as record:
+        cp.loads(without_box.replace("LENGTH", "30"))
+    messages = [str(w.message) for w in record]
+    assert not any("length 30 m is" in m for m in messages)
+    assert any("radial_clearance 1e-05 m is 3.33e-07 of its own length" in m for m in messages)

@@ -34,8 +34,9 @@ from ..errors import LoadError, ModelError
 from .clearance import KINDS, Clearance, U, ideal
 from .dimensions import Dimension, parse_dimensions
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
-from .length_check import Geometry, Kind, Length, check_lengths
+from .length_check import Kind, Length, check_lengths
 from .loads import Gravity, PointForce, Torque
+from .reference_sizes import Geometry, Shape
 from .xml_values import UNITS, label_of, labelled, number, vector
 
 BLOCK = "clearance_pin"
@@ -154,7 +155,12 @@ def empty_block() -> ET.Element:
 
 
 def read_block(
-    source: str, block: ET.Element, model: pin.Model, joints: JointTable, kind: str = "model"
+    source: str,
+    block: ET.Element,
+    model: pin.Model,
+    joints: JointTable,
+    kind: str = "model",
+    shapes: tuple[Shape, ...] = (),
 ) -> BlockContents:
     """Read a ``<clearance_pin>`` block against ``model``; every length it gives is judged
     against the model's own geometry (:mod:`~clearance_pin.model.length_check`).
@@ -165,6 +171,7 @@ def read_block(
         model: the kinematic tree.
         joints: its named joints and their types.
         kind: where the block comes from (:attr:`ClearanceBlock.kind`).
+        shapes: primitive shapes of the model's links (a URDF's), part of its geometry.
 
     Raises:
         ModelError: any invalid element, naming ``source``, the element and the problem; a
@@ -178,7 +185,7 @@ def read_block(
     lengths = reader.lengths + _tolerance_lengths(block, dimensions)
     if lengths:
         unit = block.get("unit")
-        check_lengths(source, lengths, Geometry(model, q), unit, kind, stacklevel=4)
+        check_lengths(source, lengths, Geometry(model, q, shapes), unit, kind, stacklevel=4)
     return BlockContents(
         tree_joints=tree_joints,
         q_nominal=q,

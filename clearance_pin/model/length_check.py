@@ -5,7 +5,8 @@ in metres makes a 10 um play 10 m, a 30 mm journal 30 km, and every length of th
 by the same factor, so comparing them with each other shows nothing. Each length is compared
 here with a size the block cannot change: the model's own geometry.
 
-Reference sizes [m] (all from the URDF or MJCF placements, none from the block):
+Reference sizes [m] (:mod:`~clearance_pin.model.reference_sizes`: all from the URDF or MJCF
+placements and a URDF's primitive shapes, none from the block):
 
 - the *part* of a joint: the largest distance between two points of either body it joins,
   the points being the body's joint centres (its own joint, the joints it carries) and the frames
@@ -22,9 +23,9 @@ Each kind of length has a band of ratios to its reference that real mechanisms f
 ==========================  ===========================  ====================================
 length                      normal ratio                 why
 ==========================  ===========================  ====================================
-play (radial, axial,        1e-6 .. 1e-2 of the part;    fits from H6/g5 to loose ones; ISO
-``play_z``; diametral / 2)  1e-4 .. 1e-2 of its own      286 fits (H6/g5 .. H11/c11 at 30 mm)
-                            journal or block length      give 1e-4 .. 5e-3 of the journal
+play (radial, axial,        up to 1e-2 of the part;      loose fits; ISO 286 fits (H6/g5 ..
+``play_z``; diametral / 2)  1e-4 .. 1e-2 of its own      H11/c11 at 30 mm) give 1e-4 .. 5e-3
+                            journal or block length      of the journal
 journal or block length,    1e-2 .. 3 of the part        a bearing is shorter than its part;
 ``width``, ``height``                                    a few times the part is already odd
 force point (its distance   1e-2 .. 1 of the extent      a load acts on the mechanism
@@ -36,7 +37,9 @@ of a length dimension       0.2 of the nominal size      T/2 = 10 %: plausibilit
 ==========================  ===========================  ====================================
 
 A journal is a reference of its plays only when it is in proportion itself (a journal in the
-wrong unit is named, not the plays measured with it). A zero is never judged, nor a force point
+wrong unit is named, not the plays measured with it). A play is not judged too fine against its
+part: a very fine play breaks nothing here, and one negligible against the others is ruled on by
+:mod:`~clearance_pin.equilibrium.negligible_play`. A zero is never judged, nor a force point
 within round-off of its frame.
 
 A value outside its band by :data:`OUT_OF_PROPORTION` (10x) or more is out of proportion. How
@@ -57,38 +60,34 @@ Plays too large for their part and tolerances too wide for their size, when the 
 :mod:`~clearance_pin.model.plausibility` name them already, are not warned twice; nor a prismatic
 ``q`` beyond its URDF limits. The message names the element, the attribute, the value, the ratio
 and its reference, the unit that would make the value normal, and what the file says of its unit:
-``<joint name='shoulder_pan'>: radial_clearance 10 m is 73.6x the part it joins (0.13585 m; 1e-06
-.. 0.01 is normal); was it written in um? (the file has no unit line: its lengths are read in
+``<joint name='shoulder_pan'>: radial_clearance 10 m is 73.6x the part it joins (0.13585 m; up to
+0.01 is normal); was it written in um? (the file has no unit line: its lengths are read in
 metres)``.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 import warnings
 from dataclasses import dataclass
 from typing import Literal
 
-import numpy as np
-import pinocchio as pin
-
 from ..errors import ModelError, SuspectValueWarning
 from .iso286 import ToleranceInputError, tolerance_m
+from .reference_sizes import ROUND_OFF, Geometry
 from .xml_values import UNITS
 
 Kind = Literal["play", "size", "point", "position", "tolerance"]
 
 OUT_OF_PROPORTION = 10.0  # outside the normal band by this factor: flagged
 CERTAIN = 1000.0  # outside it by this factor: no design explains it, refused
-ROUND_OFF = 1e-9  # of the extent: a distance below it is round-off, not a size
 CLEARANCE_FRACTION = 0.05  # plausibility's warning on plays (of max(part, journal length))
 TOLERANCE_FRACTION = 0.10  # plausibility's warning on half tolerances (of the nominal size)
 FINEST_GRADE = "IT1"  # the finest ISO 286 grade of a machined part (IT01, IT0: gauge blocks)
 
 # normal band (low, high) of the ratio of each kind of length to its reference (0, inf: none)
 BANDS: dict[str, tuple[float, float]] = {
-    "play": (1e-6, 1e-2),
+    "play": (0.0, 1e-2),  # a finer play breaks nothing (negligible_play.py rules on those)
     "play/length": (1e-4, 1e-2),
     "size": (1e-2, 3.0),
     "point": (1e-2, 1.0),
@@ -126,48 +125,6 @@ class Length:
     own_length: float = 0.0
     reference: float = 0.0
     written: float = math.nan
-
-
-def body_points(model: pin.Model, body: int) -> list[np.ndarray]:
-    """Points [m] of one body in its joint frame: its joint centre, the joints it carries and
-    every frame on it (links, fixed joints, sites, loop-joint frames)."""
-    points = [np.zeros(3)] if body > 0 else []
-    for child in range(1, model.njoints):
-        if model.parents[child] == body:
-            points.append(np.array(model.jointPlacements[child].translation))
-    for frame in model.frames:
-        if frame.parentJoint == body:
-            points.append(np.array(frame.placement.translation))
-    return points
-
-
-def body_size(model: pin.Model, body: int) -> float:
-    """The largest distance [m] between two points of a body (:func:`body_points`)."""
-    points = body_points(model, body)
-    return max(
-        (float(np.linalg.norm(a - b)) for a, b in itertools.combinations(points, 2)),
-        default=0.0,
-    )
-
-
-class Geometry:
-    """The reference sizes of a model (see the module docstring), computed once."""
-
-    def __init__(self, model: pin.Model, q: np.ndarray):
-        self.model = model
-        self.sizes = [body_size(model, body) for body in range(model.njoints)]
-        data = model.createData()
-        pin.framesForwardKinematics(model, data, q)
-        reach = max((float(np.linalg.norm(m.translation)) for m in data.oMf), default=0.0)
-        reach = max(reach, *(float(np.linalg.norm(m.translation)) for m in data.oMi))
-        self.extent = max(reach, *self.sizes)
-
-    def part(self, bodies: tuple[int, ...]) -> tuple[float, str]:
-        """(size [m], what it is) of the part a value belongs to; the extent when unknown."""
-        size = max((self.sizes[b] for b in bodies), default=0.0)
-        if size > ROUND_OFF * self.extent:
-            return size, "the part it joins"
-        return self.extent, "the mechanism's extent"
 
 
 def _out_by(ratio: float, band: tuple[float, float]) -> float:
@@ -362,4 +319,4 @@ def check_lengths(
         )
 
 
-__all__ = ["BANDS", "CERTAIN", "OUT_OF_PROPORTION", "Geometry", "Length", "check_lengths"]
+__all__ = ["BANDS", "CERTAIN", "OUT_OF_PROPORTION", "Length", "check_lengths"]

@@ -1,0 +1,152 @@
+"""Sizes of a mechanism that its clearance block cannot change: the references against which
+:mod:`~clearance_pin.model.length_check` judges the block's lengths.
+
+All come from the model itself: the joint placements and frames of the Pinocchio tree (a URDF's
+or an MJCF's), and the primitive collision and visual shapes of a URDF's links.
+
+- a body's *size*: the largest distance between two of its points (its joint centre, the joint
+  centres it carries, every frame on it, the centres of its shapes), or the largest diameter of
+  its shapes;
+- a joint's *part*: the larger size of the two bodies it joins;
+- the mechanism's *extent*: the farthest joint or frame from the root at the nominal
+  configuration, or the largest body size, whichever is larger.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+ROUND_OFF = 1e-9  # of the extent: a distance below it is round-off, not a size
+
+
+def body_points(model: pin.Model, body: int) -> list[np.ndarray]:
+    """Points [m] of one body in its joint frame: its joint centre, the joints it carries and
+    every frame on it (links, fixed joints, sites, loop-joint frames)."""
+    points = [np.zeros(3)] if body > 0 else []
+    for child in range(1, model.njoints):
+        if model.parents[child] == body:
+            points.append(np.array(model.jointPlacements[child].translation))
+    for frame in model.frames:
+        if frame.parentJoint == body:
+            points.append(np.array(frame.placement.translation))
+    return points
+
+
+def body_size(
+    model: pin.Model, body: int, shapes: Sequence[tuple[np.ndarray, float]] = ()
+) -> float:
+    """The largest distance [m] between two points of a body (:func:`body_points`), or the
+    largest diameter of its ``shapes`` (centre in the body's joint frame [m], diameter [m]),
+    whose centres count as points."""
+    points = body_points(model, body) + [centre for centre, _ in shapes]
+    size = max(
+        (float(np.linalg.norm(a - b)) for a, b in itertools.combinations(points, 2)),
+        default=0.0,
+    )
+    return max([size, *(diameter for _, diameter in shapes)])
+
+
+def _on_body(
+    model: pin.Model, shapes: tuple[Shape, ...], body: int
+) -> list[tuple[np.ndarray, float]]:
+    """The shapes of the links on one body: (centre in the body's joint frame [m], diameter)."""
+    found = []
+    for shape in shapes:
+        if not model.existFrame(shape.link, pin.FrameType.BODY):
+            continue
+        frame = model.frames[model.getFrameId(shape.link, pin.FrameType.BODY)]
+        if frame.parentJoint == body:
+            found.append((frame.placement.act(np.array(shape.centre)), shape.diameter))
+    return found
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A primitive collision or visual shape of a link (a URDF ``<box>``, ``<cylinder>`` or
+    ``<sphere>``): a size of its body that no joint centre shows (a pendulum's bob).
+
+    Attributes:
+        link: the link it belongs to.
+        centre: its origin in the link frame [m] (3,).
+        diameter: its largest dimension [m] (the diagonal of a box or a cylinder, a sphere's
+            diameter).
+    """
+
+    link: str
+    centre: tuple[float, float, float]
+    diameter: float
+
+
+def urdf_shapes(root: ET.Element) -> tuple[Shape, ...]:
+    """The primitive shapes of a URDF's ``<collision>`` and ``<visual>`` elements (meshes are
+    not read: their size needs the file and its scale). Malformed numbers are skipped: the
+    geometry is URDF business, only a reference here."""
+    shapes = []
+    for link in root.findall("link"):
+        for element in (*link.findall("collision"), *link.findall("visual")):
+            try:
+                diameter = _diameter(element.find("geometry"))
+                origin = element.find("origin")
+                xyz = origin.get("xyz", "0 0 0") if origin is not None else "0 0 0"
+                centre = tuple(float(v) for v in xyz.split())
+            except (TypeError, ValueError):
+                continue
+            if len(centre) == 3 and math.isfinite(diameter) and diameter > 0.0:
+                x, y, z = centre
+                shapes.append(Shape(str(link.get("name")), (x, y, z), diameter))
+    return tuple(shapes)
+
+
+def _diameter(geometry: ET.Element | None) -> float:
+    """The largest dimension [m] of a URDF primitive (0 for a mesh or nothing)."""
+    if geometry is None:
+        return 0.0
+    box = geometry.find("box")
+    if box is not None:
+        return float(np.linalg.norm([float(v) for v in box.get("size", "").split()]))
+    cylinder = geometry.find("cylinder")
+    if cylinder is not None:
+        radius, length = float(cylinder.get("radius", "")), float(cylinder.get("length", ""))
+        return math.hypot(2.0 * radius, length)
+    sphere = geometry.find("sphere")
+    if sphere is not None:
+        return 2.0 * float(sphere.get("radius", ""))
+    return 0.0
+
+
+class Geometry:
+    """The reference sizes of a model (see the module docstring), computed once.
+
+    Args:
+        model: the kinematic tree.
+        q: the nominal configuration (nq,).
+        shapes: primitive shapes of its links (a URDF's), widening their bodies' sizes.
+    """
+
+    def __init__(self, model: pin.Model, q: np.ndarray, shapes: tuple[Shape, ...] = ()):
+        self.model = model
+        self.sizes = [
+            body_size(model, body, _on_body(model, shapes, body)) for body in range(model.njoints)
+        ]
+        data = model.createData()
+        pin.framesForwardKinematics(model, data, q)
+        reach = max((float(np.linalg.norm(m.translation)) for m in data.oMf), default=0.0)
+        reach = max(reach, *(float(np.linalg.norm(m.translation)) for m in data.oMi))
+        self.extent = max(reach, *self.sizes)
+
+    def part(self, bodies: tuple[int, ...]) -> tuple[float, str]:
+        """(size [m], what it is) of the part a value belongs to; the extent when unknown."""
+        size = max((self.sizes[b] for b in bodies), default=0.0)
+        if size > ROUND_OFF * self.extent:
+            return size, "the part it joins"
+        return self.extent, "the mechanism's extent"
+
+
+__all__ = ["ROUND_OFF", "Geometry", "Shape", "body_points", "body_size", "urdf_shapes"]
