@@ -26,45 +26,26 @@ import pinocchio as pin
 ROUND_OFF = 1e-9  # of the extent: a distance below it is round-off, not a size
 
 
-def body_points(model: pin.Model, body: int) -> list[np.ndarray]:
-    """Points [m] of one body in its joint frame: its joint centre, the joints it carries and
-    every frame on it (links, fixed joints, sites, loop-joint frames)."""
-    points = [np.zeros(3)] if body > 0 else []
+def body_points(model: pin.Model) -> list[list[np.ndarray]]:
+    """Points [m] of every body (index: its Pinocchio joint) in its joint frame: its joint
+    centre, the joints it carries and every frame on it (links, fixed joints, sites, loop-joint
+    frames)."""
+    points: list[list[np.ndarray]] = [[]] + [[np.zeros(3)] for _ in range(1, model.njoints)]
     for child in range(1, model.njoints):
-        if model.parents[child] == body:
-            points.append(np.array(model.jointPlacements[child].translation))
+        points[model.parents[child]].append(np.array(model.jointPlacements[child].translation))
     for frame in model.frames:
-        if frame.parentJoint == body:
-            points.append(np.array(frame.placement.translation))
+        points[frame.parentJoint].append(np.array(frame.placement.translation))
     return points
 
 
-def body_size(
-    model: pin.Model, body: int, shapes: Sequence[tuple[np.ndarray, float]] = ()
-) -> float:
-    """The largest distance [m] between two points of a body (:func:`body_points`), or the
-    largest diameter of its ``shapes`` (centre in the body's joint frame [m], diameter [m]),
-    whose centres count as points."""
-    points = body_points(model, body) + [centre for centre, _ in shapes]
+def body_size(points: Sequence[np.ndarray], diameters: Sequence[float] = ()) -> float:
+    """The size [m] of a body: the largest distance between two of its ``points`` [m] (shape
+    centres included), or the largest of its shapes' ``diameters`` [m]."""
     size = max(
         (float(np.linalg.norm(a - b)) for a, b in itertools.combinations(points, 2)),
         default=0.0,
     )
-    return max([size, *(diameter for _, diameter in shapes)])
-
-
-def _on_body(
-    model: pin.Model, shapes: tuple[Shape, ...], body: int
-) -> list[tuple[np.ndarray, float]]:
-    """The shapes of the links on one body: (centre in the body's joint frame [m], diameter)."""
-    found = []
-    for shape in shapes:
-        if not model.existFrame(shape.link, pin.FrameType.BODY):
-            continue
-        frame = model.frames[model.getFrameId(shape.link, pin.FrameType.BODY)]
-        if frame.parentJoint == body:
-            found.append((frame.placement.act(np.array(shape.centre)), shape.diameter))
-    return found
+    return max([size, *diameters])
 
 
 @dataclass(frozen=True)
@@ -121,6 +102,19 @@ def _diameter(geometry: ET.Element | None) -> float:
     return 0.0
 
 
+def world_placements(model: pin.Model, q: np.ndarray) -> list[pin.SE3]:
+    """The world placement of every joint frame at ``q`` (nq,): the forward kinematics joint by
+    joint, without a ``pin.Data`` (whose construction costs seconds for a long chain)."""
+    placements = [pin.SE3.Identity()]
+    for joint_id in range(1, model.njoints):
+        joint = model.joints[joint_id]
+        data = joint.createData()
+        joint.calc(data, q)
+        parent = placements[model.parents[joint_id]]
+        placements.append(parent * model.jointPlacements[joint_id] * data.M)
+    return placements
+
+
 class Geometry:
     """The reference sizes of a model (see the module docstring), computed once.
 
@@ -132,14 +126,22 @@ class Geometry:
 
     def __init__(self, model: pin.Model, q: np.ndarray, shapes: tuple[Shape, ...] = ()):
         self.model = model
-        self.sizes = [
-            body_size(model, body, _on_body(model, shapes, body)) for body in range(model.njoints)
-        ]
-        data = model.createData()
-        pin.framesForwardKinematics(model, data, q)
-        reach = max((float(np.linalg.norm(m.translation)) for m in data.oMf), default=0.0)
-        reach = max(reach, *(float(np.linalg.norm(m.translation)) for m in data.oMi))
-        self.extent = max(reach, *self.sizes)
+        points = body_points(model)
+        diameters: list[list[float]] = [[] for _ in range(model.njoints)]
+        for shape in shapes:
+            if not model.existFrame(shape.link, pin.FrameType.BODY):
+                continue
+            frame = model.frames[model.getFrameId(shape.link, pin.FrameType.BODY)]
+            points[frame.parentJoint].append(frame.placement.act(np.array(shape.centre)))
+            diameters[frame.parentJoint].append(shape.diameter)
+        self.sizes = [body_size(p, d) for p, d in zip(points, diameters, strict=True)]
+        placements = world_placements(model, q)
+        reach = [float(np.linalg.norm(m.translation)) for m in placements]
+        for frame in model.frames:
+            reach.append(
+                float(np.linalg.norm((placements[frame.parentJoint] * frame.placement).translation))
+            )
+        self.extent = max([*reach, *self.sizes])
 
     def part(self, bodies: tuple[int, ...]) -> tuple[float, str]:
         """(size [m], what it is) of the part a value belongs to; the extent when unknown."""
@@ -149,4 +151,12 @@ class Geometry:
         return self.extent, "the mechanism's extent"
 
 
-__all__ = ["ROUND_OFF", "Geometry", "Shape", "body_points", "body_size", "urdf_shapes"]
+__all__ = [
+    "ROUND_OFF",
+    "Geometry",
+    "Shape",
+    "body_points",
+    "body_size",
+    "urdf_shapes",
+    "world_placements",
+]
