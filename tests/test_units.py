@@ -378,26 +378,31 @@ def test_a_journal_length_in_mm_in_a_file_without_a_unit_line_is_refused(tmp_pat
     assert "no unit line" in caught.value.problem
 
 
-def test_a_whole_file_in_the_wrong_unit_is_named_at_every_field(tmp_path):
-    """arm_6r's file written in um but declaring mm: every length is 1000x too large. In a file
-    that states its unit these are warnings (out by less than 1000x): the journals (30 m, 221x
-    their part) and the force point (50 m, 72x the arm's 0.691 m extent at its nominal pose),
-    each naming um. The plays (10 mm) are only 7x beyond the normal band of their 0.136 m part
-    and not measured against a journal out of proportion: the journal shows the mistake."""
+def test_a_whole_file_in_the_wrong_unit_is_refused_naming_the_unit(tmp_path):
+    """arm_6r's file written in um but declaring mm: every length is 1000x too large. Each
+    journal alone (30 m, 221x its 0.136 m part) would be a warning in a file that states its
+    unit, but both journals of the file are out of proportion and both would be normal in um:
+    the unit line is wrong, refused."""
     model = model_path(ARM_6R, tmp_path)
     values = {name: _in_unit(v, "um") for name, v in ARM_6R.values.items()}
-    text = re.sub(
-        r'(radial_clearance|axial_clearance|length)="(\d+)"', r'\1="\2"', ARM_6R.template
-    ).format(unit="mm", **values)
     clearances = tmp_path / "play.xml"
-    clearances.write_text(text)
-    with warnings.catch_warnings(record=True) as record:
-        warnings.simplefilter("always")
+    clearances.write_text(ARM_6R.template.format(unit="mm", **values))
+    with pytest.raises(cp.ModelError) as caught:
         cp.load(model, clearances=clearances)
-    messages = " | ".join(str(w.message) for w in record)
-    for field in ("length", "point"):
-        assert f"{field} " in messages, field
-    assert "was it written in um?" in messages
+    problem = caught.value.problem
+    assert "length 30 m is 221x the part it joins (0.136 m" in problem
+    assert "every journal and block length of the file is out of proportion" in problem
+    assert problem.endswith("its lengths are likely in um")
+
+
+def test_one_journal_in_the_wrong_unit_is_only_warned(tmp_path):
+    """The same file with one journal in um and the other in mm, as declared: a warning naming
+    the one, no refusal (a typo in a unit the file means)."""
+    model = model_path(ARM_6R, tmp_path)
+    clearances = tmp_path / "play.xml"
+    clearances.write_text(clearance_text(ARM_6R, "mm", "length", "um"))
+    with pytest.warns(cp.SuspectValueWarning, match=r"length 30 m is 221x .* written in um\?"):
+        cp.load(model, clearances=clearances)
 
 
 def test_a_dict_in_micrometres_is_refused():
@@ -415,20 +420,16 @@ def test_a_dict_in_micrometres_is_refused():
 def test_an_mjcf_model_is_judged_by_its_own_placements(tmp_path):
     """Beside an MJCF file the reference is the MJCF's geometry: the two-link arm of
     tests/test_mjcf.py (0.3 m between shoulder and elbow) with its clearance file, written in
-    mm, declaring m: the 25 (mm) journal read as 25 m is 83x the part, the force point 250 m;
-    both warned naming mm. Declaring mm, as written: silent."""
+    mm, declaring m: the 25 (mm) journal of its default, read as 25 m on both joints, is 83.3x
+    the upper arm; both journals agree on mm: refused. Declaring mm, as written: silent."""
     from test_mjcf import ARM_MJCF, ARM_PLAY
 
     model = tmp_path / "arm.xml"
     model.write_text(ARM_MJCF)
     clearances = tmp_path / "play.xml"
     clearances.write_text(ARM_PLAY.replace('unit="mm"', 'unit="m"'))
-    with warnings.catch_warnings(record=True) as record:
-        warnings.simplefilter("always")
+    with pytest.raises(cp.ModelError, match=r"length 25 m is 83\.3x the part it joins \(0\.3 m"):
         cp.load(model, clearances=clearances)
-    messages = " | ".join(str(w.message) for w in record)
-    assert "length 25 m is 83.3x the part it joins (0.3 m" in messages
-    assert "point 250 m" in messages and "was it written in mm?" in messages
     clearances.write_text(ARM_PLAY)
     with warnings.catch_warnings():
         warnings.simplefilter("error", cp.ClearancePinWarning)

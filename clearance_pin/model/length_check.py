@@ -51,7 +51,9 @@ sure that is decides the outcome:
   large at all in a clearance *file* without a ``unit`` line, whose user never said the lengths
   were metres (the docs' own UR5 file without its ``unit = "um"`` line gave a 25.6 m tool
   displacement with ``ok=True``; a URDF is SI by its own rules, so a block inside one is warned,
-  and a dict is SI by the API's). Every refusal comes before any warning;
+  and a dict is SI by the API's); or when every journal and block length of the block (two at
+  least) is out of proportion and all would be normal in one same other unit: then the unit
+  line itself is wrong. Every refusal comes before any warning;
 - :class:`~clearance_pin.errors.SuspectValueWarning` otherwise: one odd value in a file that
   states its unit may be meant, and a value too small (a point near its frame, a slide near its
   zero, a very fine play or tolerance) breaks nothing.
@@ -83,6 +85,7 @@ OUT_OF_PROPORTION = 10.0  # outside the normal band by this factor: flagged
 CERTAIN = 1000.0  # outside it by this factor: no design explains it, refused
 CLEARANCE_FRACTION = 0.05  # plausibility's warning on plays (of max(part, journal length))
 TOLERANCE_FRACTION = 0.10  # plausibility's warning on half tolerances (of the nominal size)
+AGREEING_SIZES = 2  # journal or block lengths all wrong by one unit: the unit line is wrong
 FINEST_GRADE = "IT1"  # the finest ISO 286 grade of a machined part (IT01, IT0: gauge blocks)
 
 # normal band (low, high) of the ratio of each kind of length to its reference (0, inf: none)
@@ -236,6 +239,25 @@ def _warned_elsewhere(finding: _Finding) -> bool:
     return False
 
 
+def _misdeclared(
+    lengths: list[Length], findings: list[_Finding], exponent: int
+) -> tuple[_Finding, str] | None:
+    """(the first finding, the unit meant) when the block's unit itself is wrong: it has at
+    least :data:`AGREEING_SIZES` journal or block lengths, each out of proportion with its part,
+    all pointing to one same other unit. One length wrong alone may be a typo in a unit the
+    block means; every one of them wrong by one unit factor is the unit line."""
+    sizes = [length for length in lengths if length.kind == "size"]
+    if len(sizes) < AGREEING_SIZES:
+        return None
+    judged = {id(f.length): f for f in findings if f.length.kind == "size"}
+    if any(id(length) not in judged for length in sizes):
+        return None
+    units = {_likely_unit(f.ratio, f.band, exponent) for f in judged.values()}
+    if len(units) != 1 or None in units:
+        return None
+    return judged[id(sizes[0])], str(units.pop())
+
+
 def unit_note(unit: str | None, kind: str) -> str:
     """What the block says of its unit, for the messages."""
     if kind == "dict":
@@ -305,6 +327,16 @@ def check_lengths(
     for finding in findings:  # refused before anything is warned
         if finding.refused or (unstated and finding.too_large):
             raise ModelError(source, finding.length.label, _message(finding, exponent, note))
+    misdeclared = _misdeclared(lengths, findings, exponent)
+    if misdeclared is not None:
+        finding, unit_meant = misdeclared
+        raise ModelError(
+            source,
+            finding.length.label,
+            f"{_message(finding, exponent, note)}; every journal and block length of the "
+            f"{'file' if kind == 'file' else 'block'} is out of proportion the same way: its "
+            f"lengths are likely in {unit_meant}",
+        )
     seen: set[tuple[str, str]] = set()
     for finding in findings:
         key = (finding.length.label, finding.length.attribute)
