@@ -419,16 +419,17 @@ def test_a_dict_in_micrometres_is_refused():
 
 def test_an_mjcf_model_is_judged_by_its_own_placements(tmp_path):
     """Beside an MJCF file the reference is the MJCF's geometry: the two-link arm of
-    tests/test_mjcf.py (0.3 m between shoulder and elbow) with its clearance file, written in
-    mm, declaring m: the 25 (mm) journal of its default, read as 25 m on both joints, is 83.3x
-    the upper arm; both journals agree on mm: refused. Declaring mm, as written: silent."""
+    tests/test_mjcf.py (its upper arm a capsule from the shoulder to the elbow 0.3 m away,
+    radius 0.02 m: 0.34 m end to end) with its clearance file, written in mm, declaring m: the
+    25 (mm) journal of its default, read as 25 m on both joints, is 73.5x the upper arm; both
+    journals agree on mm: refused. Declaring mm, as written: silent."""
     from test_mjcf import ARM_MJCF, ARM_PLAY
 
     model = tmp_path / "arm.xml"
     model.write_text(ARM_MJCF)
     clearances = tmp_path / "play.xml"
     clearances.write_text(ARM_PLAY.replace('unit="mm"', 'unit="m"'))
-    with pytest.raises(cp.ModelError, match=r"length 25 m is 83\.3x the part it joins \(0\.3 m"):
+    with pytest.raises(cp.ModelError, match=r"length 25 m is 73\.5x the part it joins \(0\.34 m"):
         cp.load(model, clearances=clearances)
     clearances.write_text(ARM_PLAY)
     with warnings.catch_warnings():
@@ -487,3 +488,31 @@ def test_world_placements_are_pinocchios_forward_kinematics(name):
     pin.forwardKinematics(model, data, q)
     for expected, got in zip(data.oMi, world_placements(model, q), strict=True):
         np.testing.assert_allclose(got.homogeneous, expected.homogeneous, rtol=0, atol=1e-14)
+
+
+PENDULUM_MJCF = """<mujoco model="pendulum">
+  <worldbody>
+    <body name="bob">
+      <joint name="axle" type="hinge" axis="0 1 0" range="-3 3" limited="true"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.02"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_lone_mjcf_joint_is_judged_by_its_geoms(tmp_path):
+    """The MJCF pendulum: one hinge, no other joint or site, so only its geom gives a size: a
+    capsule from the axle 0.5 m down, radius 0.02 m (MuJoCo's size), 0.54 m end to end. A 30 mm
+    journal written as 30 in a metre file is 55.6x that: refused (no unit line), naming mm."""
+    model = tmp_path / "pendulum.xml"
+    model.write_text(PENDULUM_MJCF)
+    clearances = tmp_path / "play.toml"
+    play = 'type = "revolute"\nradial_clearance = 1e-5\nlength = {}\ndriven = true\n'
+    clearances.write_text("[joints.axle]\n" + play.format("0.03"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cp.ClearancePinWarning)
+        cp.load(model, clearances=clearances)
+    clearances.write_text("[joints.axle]\n" + play.format("30"))
+    with pytest.raises(cp.ModelError, match=r"length 30 m is 55\.6x the part it joins \(0\.54 m"):
+        cp.load(model, clearances=clearances)

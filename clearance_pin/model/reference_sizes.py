@@ -2,7 +2,8 @@
 :mod:`~clearance_pin.model.length_check` judges the block's lengths.
 
 All come from the model itself: the joint placements and frames of the Pinocchio tree (a URDF's
-or an MJCF's), and the primitive collision and visual shapes of a URDF's links.
+or an MJCF's), the primitive collision and visual shapes of a URDF's links and the geoms of an
+MJCF's bodies (meshes are not read).
 
 - a body's *size*: the largest distance between two of its points (its joint centre, the joint
   centres it carries, every frame on it, the centres of its shapes), or the largest diameter of
@@ -85,6 +86,53 @@ def urdf_shapes(root: ET.Element) -> tuple[Shape, ...]:
     return tuple(shapes)
 
 
+def mjcf_shapes(tree: ET.Element) -> tuple[Shape, ...]:
+    """The geoms of an MJCF tree's named bodies, as shapes of the link of the body's name (the
+    name Pinocchio gives its frame). A geom whose size comes from a default class or a mesh is
+    skipped, as are malformed numbers: the geometry is only a reference here."""
+    shapes = []
+    for body in tree.iter("body"):
+        name = body.get("name")
+        if not name:
+            continue
+        for geom in body.findall("geom"):
+            try:
+                shape = _mjcf_shape(name, geom)
+            except (TypeError, ValueError):
+                continue
+            if shape is not None:
+                shapes.append(shape)
+    return tuple(shapes)
+
+
+def _mjcf_shape(link: str, geom: ET.Element) -> Shape | None:
+    """One MJCF geom (``size`` as MuJoCo reads it: radii and half-lengths) as a shape."""
+    kind = geom.get("type", "sphere")
+    size = [float(v) for v in geom.get("size", "").split()]
+    if not size or kind not in ("sphere", "capsule", "cylinder", "box", "ellipsoid"):
+        return None
+    fromto = geom.get("fromto")
+    if fromto is not None and kind in ("capsule", "cylinder", "box", "ellipsoid"):
+        ends = np.array([float(v) for v in fromto.split()]).reshape(2, 3)
+        centre = 0.5 * (ends[0] + ends[1])
+        half = 0.5 * float(np.linalg.norm(ends[1] - ends[0]))
+    else:
+        centre = np.array([float(v) for v in geom.get("pos", "0 0 0").split()])
+        half = size[1] if len(size) > 1 and kind in ("capsule", "cylinder") else 0.0
+    if kind == "sphere":
+        diameter = 2.0 * size[0]
+    elif kind == "capsule":
+        diameter = 2.0 * (half + size[0])
+    elif kind == "cylinder":
+        diameter = math.hypot(2.0 * half, 2.0 * size[0])
+    else:  # box, ellipsoid: half sizes or radii
+        diameter = 2.0 * float(np.linalg.norm(size[:3])) if kind == "box" else 2.0 * max(size)
+    if centre.shape != (3,) or not (math.isfinite(diameter) and diameter > 0.0):
+        return None
+    x, y, z = (float(v) for v in centre)
+    return Shape(link, (x, y, z), diameter)
+
+
 def _diameter(geometry: ET.Element | None) -> float:
     """The largest dimension [m] of a URDF primitive (0 for a mesh or nothing)."""
     if geometry is None:
@@ -157,6 +205,7 @@ __all__ = [
     "Shape",
     "body_points",
     "body_size",
+    "mjcf_shapes",
     "urdf_shapes",
     "world_placements",
 ]
