@@ -6,11 +6,12 @@ by the same factor, so comparing them with each other shows nothing. Each length
 here with a size the block cannot change: the model's own geometry.
 
 Reference sizes [m] (:mod:`~clearance_pin.model.reference_sizes`: all from the URDF or MJCF
-placements and a URDF's primitive shapes, none from the block):
+placements, a URDF's primitive shapes and an MJCF's geoms, none from the block):
 
 - the *part* of a joint: the largest distance between two points of either body it joins,
-  the points being the body's joint centres (its own joint, the joints it carries) and the frames
-  on it (links, fixed joints, sites, the loop joints' frames);
+  the points being the body's joint centres (its own joint, the joints it carries), the frames
+  on it (links, fixed joints, sites, the loop joints' frames) and its shapes' centres; or its
+  largest shape;
 - the *extent* of the mechanism: the largest distance of a joint or frame from the root at the
   drawn configuration, or the largest part, whichever is larger. It stands for a part whose
   size is not known (one joint centre only), and is the reference of a force point;
@@ -76,6 +77,7 @@ from typing import Literal
 
 from ..errors import ModelError, SuspectValueWarning
 from .iso286 import ToleranceInputError, tolerance_m
+from .plausibility import CLEARANCE_FRACTION, TOLERANCE_FRACTION  # what it warns already
 from .reference_sizes import ROUND_OFF, Geometry
 from .xml_values import UNITS
 
@@ -83,8 +85,6 @@ Kind = Literal["play", "size", "point", "position", "tolerance"]
 
 OUT_OF_PROPORTION = 10.0  # outside the normal band by this factor: flagged
 CERTAIN = 1000.0  # outside it by this factor: no design explains it, refused
-CLEARANCE_FRACTION = 0.05  # plausibility's warning on plays (of max(part, journal length))
-TOLERANCE_FRACTION = 0.10  # plausibility's warning on half tolerances (of the nominal size)
 AGREEING_SIZES = 2  # journal or block lengths all wrong by one unit: the unit line is wrong
 FINEST_GRADE = "IT1"  # the finest ISO 286 grade of a machined part (IT01, IT0: gauge blocks)
 
@@ -275,7 +275,9 @@ def _message(finding: _Finding, exponent: int, note: str) -> str:
         "size": "",
         "point": " (distance of the force point from its link frame)",
         "position": " (nominal value of a prismatic joint)",
-        "tolerance": "",
+        "tolerance": f" (full width T = {length.value:.6g} m)"
+        if length.attribute != "tolerance"
+        else "",
     }[length.kind]
     shown = length.written if math.isfinite(length.written) else length.value
     if not math.isfinite(finding.ratio):
@@ -317,8 +319,10 @@ def check_lengths(
         kind: ``"file"`` (a clearance file), ``"model"`` (a block inside a URDF) or ``"dict"``.
 
     Raises:
-        ModelError: the first length out of proportion by :data:`CERTAIN` or more, or out of
-            proportion at all in a clearance file without a unit line.
+        ModelError: the first length out of proportion by :data:`CERTAIN` or more (too large,
+            or a journal or block too small), too large at all in a clearance file without a
+            unit line, or the first journal of a block whose every journal and block length is
+            out of proportion the same way (its unit line is wrong).
     """
     exponent = UNITS[unit] if unit is not None else 0
     note = unit_note(unit, kind)
