@@ -516,3 +516,23 @@ def test_a_lone_mjcf_joint_is_judged_by_its_geoms(tmp_path):
     clearances.write_text("[joints.axle]\n" + play.format("30"))
     with pytest.raises(cp.ModelError, match=r"length 30 m is 55\.6x the part it joins \(0\.54 m"):
         cp.load(model, clearances=clearances)
+
+
+def test_loop_joints_given_as_a_dict_are_judged_too():
+    """from_model(loop_joints=...) is a dict in SI like the clearances: the slider-crank's slide
+    with a 40 (mm meant) block length read as 40 m. The slider and the guide carry one joint
+    centre each, so the reference is the mechanism's extent at the drawn configuration (crank
+    and rod in line along x: 0.05 + 0.12 = 0.17 m): 235x, a warning naming mm (refused only from
+    1000x beyond the normal 3: a dict states its unit by the API)."""
+    mechanism = cp.load(MODELS / "slider_crank.urdf")
+    slide = {
+        "type": "prismatic",
+        "frame_a": "guide",
+        "frame_b": "slider",
+        "radial_clearance": 5e-5,
+        "length": 40,
+        "axis": [1, 0, 0],
+    }
+    expected = r"length 40 m is 235x the mechanism's extent \(0\.17 m.* written in mm\?"
+    with pytest.warns(cp.SuspectValueWarning, match=expected):
+        cp.from_model(mechanism.model, loop_joints={"slide": slide})

@@ -221,8 +221,14 @@ def _tolerance_lengths(block: ET.Element, dimensions: tuple[Dimension, ...]) -> 
 
 def read_loop_joints(source: str, block: ET.Element, model: pin.Model) -> tuple[LoopJoint, ...]:
     """Read only the ``<loop_joint>`` elements of a block (loop joints given apart from the
-    clearances: ``from_model(..., loop_joints=...)``)."""
-    return _BlockReader(source, block, model, JointTable({}, "model")).loop_joints()
+    clearances: ``from_model(..., loop_joints=...)``, a dict in SI), their lengths judged
+    against the model's geometry as a dict's (:mod:`~clearance_pin.model.length_check`)."""
+    reader = _BlockReader(source, block, model, JointTable({}, "model"))
+    loop_joints = reader.loop_joints()
+    if reader.lengths:
+        geometry = Geometry(model, drawn_configuration(model))
+        check_lengths(source, reader.lengths, geometry, block.get("unit"), "dict", stacklevel=4)
+    return loop_joints
 
 
 class _BlockReader:
