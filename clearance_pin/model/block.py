@@ -12,6 +12,8 @@ Units: every value is SI unless the block says otherwise with ``unit="mm"`` (``m
 ``um``; default ``m``): then every length of the block (clearances, journal and block lengths,
 force points, nominal values of prismatic joints, toleranced lengths) is in that unit and
 converted to metres here; angles stay in radians, forces in N, torques in N m, gravity in m/s^2.
+Every length is then judged against the model's own geometry, so a forgotten or wrong unit is
+refused or warned (:mod:`~clearance_pin.model.length_check`).
 
 Every problem is a :class:`~clearance_pin.errors.ModelError` naming the file, the element and the
 problem.
@@ -32,7 +34,9 @@ from ..errors import LoadError, ModelError
 from .clearance import KINDS, Clearance, U, ideal
 from .dimensions import Dimension, parse_dimensions
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
+from .length_check import Kind, Length, check_lengths
 from .loads import Gravity, PointForce, Torque
+from .reference_sizes import Geometry, Shape
 from .xml_values import UNITS, label_of, labelled, number, vector
 
 BLOCK = "clearance_pin"
@@ -110,10 +114,14 @@ class ClearanceBlock:
     Attributes:
         element: the block.
         source: the file (or ``"<clearances>"`` for a Python dict), named in messages.
+        kind: ``"file"`` (a clearance file), ``"dict"`` (a Python dict) or ``"model"`` (a block
+            inside a URDF, or none): how sure a length out of proportion is a unit mistake
+            (:mod:`~clearance_pin.model.length_check`).
     """
 
     element: ET.Element
     source: str
+    kind: str = "model"
 
 
 @dataclass(frozen=True)
@@ -147,23 +155,37 @@ def empty_block() -> ET.Element:
 
 
 def read_block(
-    source: str, block: ET.Element, model: pin.Model, joints: JointTable
+    source: str,
+    block: ET.Element,
+    model: pin.Model,
+    joints: JointTable,
+    kind: str = "model",
+    shapes: tuple[Shape, ...] = (),
 ) -> BlockContents:
-    """Read a ``<clearance_pin>`` block against ``model``.
+    """Read a ``<clearance_pin>`` block against ``model``; every length it gives is judged
+    against the model's own geometry (:mod:`~clearance_pin.model.length_check`).
 
     Args:
         source: the block's file, named in messages.
         block: the ``<clearance_pin>`` element.
         model: the kinematic tree.
         joints: its named joints and their types.
+        kind: where the block comes from (:attr:`ClearanceBlock.kind`).
+        shapes: primitive shapes of the model's links (a URDF's), part of its geometry.
 
     Raises:
-        ModelError: any invalid element, naming ``source``, the element and the problem.
+        ModelError: any invalid element, naming ``source``, the element and the problem; a
+            length out of proportion with the geometry (a unit mistake), as length_check says.
     """
     reader = _BlockReader(source, block, model, joints)
     tree_joints, q = reader.tree_joints()
     loop_joints = reader.loop_joints()
     forces, gravity = reader.loads()
+    dimensions = parse_dimensions(source, block, model, reader.exponent)
+    lengths = reader.lengths + _tolerance_lengths(block, dimensions)
+    if lengths:
+        unit = block.get("unit")
+        check_lengths(source, lengths, Geometry(model, q, shapes), unit, kind, stacklevel=4)
     return BlockContents(
         tree_joints=tree_joints,
         q_nominal=q,
@@ -171,14 +193,42 @@ def read_block(
         loop_joints=loop_joints,
         loads=forces,
         gravity=gravity,
-        dimensions=parse_dimensions(source, block, model, reader.exponent),
+        dimensions=dimensions,
     )
+
+
+def _tolerance_lengths(block: ET.Element, dimensions: tuple[Dimension, ...]) -> list[Length]:
+    """The tolerances [m] of the length dimensions given in the block's unit."""
+    elements = {element.get("name"): element for element in block.findall("dimension")}
+    lengths = []
+    for dimension in dimensions:
+        element = elements.get(dimension.name)
+        if dimension.kind != "length" or dimension.grade is not None or element is None:
+            continue
+        attribute = "tolerance" if element.get("tolerance") is not None else "half_tolerance"
+        lengths.append(
+            Length(
+                label_of(element) or f"<dimension name='{dimension.name}'>",
+                attribute,
+                dimension.tolerance,
+                "tolerance",
+                reference=abs(dimension.nominal),
+                written=dimension.half_tolerance if attribute == "half_tolerance" else math.nan,
+            )
+        )
+    return lengths
 
 
 def read_loop_joints(source: str, block: ET.Element, model: pin.Model) -> tuple[LoopJoint, ...]:
     """Read only the ``<loop_joint>`` elements of a block (loop joints given apart from the
-    clearances: ``from_model(..., loop_joints=...)``)."""
-    return _BlockReader(source, block, model, JointTable({}, "model")).loop_joints()
+    clearances: ``from_model(..., loop_joints=...)``, a dict in SI), their lengths judged
+    against the model's geometry as a dict's (:mod:`~clearance_pin.model.length_check`)."""
+    reader = _BlockReader(source, block, model, JointTable({}, "model"))
+    loop_joints = reader.loop_joints()
+    if reader.lengths:
+        geometry = Geometry(model, drawn_configuration(model))
+        check_lengths(source, reader.lengths, geometry, block.get("unit"), "dict", stacklevel=4)
+    return loop_joints
 
 
 class _BlockReader:
@@ -188,6 +238,7 @@ class _BlockReader:
         self.model = model
         self.joints = joints
         self.nominal_given: dict[int, float] = {}  # joint id -> the file's q [rad or m]
+        self.lengths: list[Length] = []  # every length read [m], judged against the geometry
         label = label_of(block) or f"<{BLOCK}>"
         _check_attributes(source, block, {"unit"}, label)
         unit = block.get("unit", "m")
@@ -346,7 +397,8 @@ class _BlockReader:
                     )
                 axis = _pin_axis(pin_joint)
             kind = IDEAL_KIND_OF_URDF.get(joint_type, "free")
-            clearance = self._clearance(element, label, kind)
+            bodies = (int(model.parents[joint_id]), joint_id)
+            clearance = self._clearance(element, label, kind, bodies)
             if motion is not None and motion not in clearance.free_components:
                 raise ModelError(
                     self.source,
@@ -361,6 +413,11 @@ class _BlockReader:
                 )
             if element is not None and element.get("q") is not None:
                 value = self._number(element, "q", length=motion == U)  # m or rad
+                if motion == U:
+                    span = _largest_limit(model, joint_id)
+                    self.lengths.append(
+                        Length(label, "q", abs(value), "position", (joint_id,), reference=span)
+                    )
                 self.nominal_given[joint_id] = value
                 set_nominal(self.source, label, model, joint_id, q, value)
             joints.append(TreeJoint(name, joint_id, clearance, rotation_x_to(axis), motion, driven))
@@ -402,12 +459,19 @@ class _BlockReader:
             kind = element.get("type")
             if kind is None:
                 raise ModelError(self.source, label, f"needs a type, one of {KINDS}")
-            clearance = self._clearance(element, label, kind)
+            bodies = tuple(int(model.frames[f].parentJoint) for f in frames)
+            clearance = self._clearance(element, label, kind, bodies)
             axis = self._vector(element, "axis", default=(1.0, 0.0, 0.0))
             joints.append(LoopJoint(name, frames[0], frames[1], clearance, rotation_x_to(axis)))
         return tuple(joints)
 
-    def _clearance(self, element: ET.Element | None, label: str, default_kind: str) -> Clearance:
+    def _clearance(
+        self,
+        element: ET.Element | None,
+        label: str,
+        default_kind: str,
+        bodies: tuple[int, ...] = (),
+    ) -> Clearance:
         if element is None or element.get("type") is None:
             if element is not None and any(element.get(a) for a in LENGTH_ATTRIBUTES):
                 raise ModelError(self.source, label, f"clearances need a type, one of {KINDS}")
@@ -440,9 +504,36 @@ class _BlockReader:
                 "joint)",
             )
         try:
-            return Clearance(kind, **values)
+            clearance = Clearance(kind, **values)
         except ValueError as exc:
             raise ModelError(self.source, label, str(exc)) from None
+        self._record_clearance(element, label, values, bodies)
+        return clearance
+
+    def _record_clearance(
+        self, element: ET.Element, label: str, values: dict[str, float], bodies: tuple[int, ...]
+    ) -> None:
+        """Keep the lengths of a clearance for the check against the geometry."""
+        own_length = values.get("length", 0.0)
+        for attribute, field_name in CLEARANCE_ATTRIBUTES.items():
+            if field_name not in values or element.get(attribute) is None:
+                continue
+            kind: Kind = "size" if field_name in ("length", "width", "height") else "play"
+            value = values[field_name]
+            self.lengths.append(Length(label, attribute, value, kind, bodies, own_length))
+        if element.get("diametral_clearance") is not None:
+            radial = values["radial"]
+            self.lengths.append(
+                Length(
+                    label,
+                    "diametral_clearance",
+                    radial,
+                    "play",
+                    bodies,
+                    own_length,
+                    written=2.0 * radial,
+                )
+            )
 
     # -- loads ----------------------------------------------------------------------------
     def loads(self) -> tuple[tuple[PointForce | Torque, ...], Gravity | None]:
@@ -467,6 +558,10 @@ class _BlockReader:
                     point = self._vector(
                         element, "point", default=(0.0, 0.0, 0.0), allow_zero=True, length=True
                     )
+                    if element.get("point") is not None:
+                        body = int(model.frames[model.getFrameId(link)].parentJoint)
+                        distance = float(np.linalg.norm(point))
+                        self.lengths.append(Length(label, "point", distance, "point", (body,)))
                     loads.append(PointForce(link, value, point))
                 else:
                     loads.append(Torque(link, value))
@@ -547,6 +642,17 @@ def _pin_axis(pin_joint: pin.JointModel) -> np.ndarray:
     axis = subspace[3:] if np.linalg.norm(subspace[3:]) > 0.5 else subspace[:3]
     unit: np.ndarray = axis / np.linalg.norm(axis)
     return unit
+
+
+def _largest_limit(model: pin.Model, joint_id: int) -> float:
+    """The largest of ``|lower|``, ``|upper|`` [m] of a 1-DOF joint's URDF limits (0 without a
+    range: equal or infinite limits)."""
+    joint = model.joints[joint_id]
+    lower = float(model.lowerPositionLimit[joint.idx_q])
+    upper = float(model.upperPositionLimit[joint.idx_q])
+    if not (math.isfinite(lower) and math.isfinite(upper)) or upper <= lower:
+        return 0.0
+    return max(abs(lower), abs(upper))
 
 
 def set_nominal(

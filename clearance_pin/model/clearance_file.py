@@ -101,7 +101,7 @@ def clearance_block(
     if clearances is None:
         return None
     if isinstance(clearances, Mapping):
-        return ClearanceBlock(from_dict(clearances, dict_source), dict_source)
+        return ClearanceBlock(from_dict(clearances, dict_source), dict_source, "dict")
     if not isinstance(clearances, (str, os.PathLike)):
         raise ArgumentError(
             argument, "a clearance file (.xml or .toml path) or a dict of clearances", clearances
@@ -126,8 +126,8 @@ def read_clearance_file(path: str | os.PathLike[str]) -> ClearanceBlock:
             text = data.decode("utf-8-sig")
         except UnicodeDecodeError as exc:
             raise ModelError(source, "<toml>", f"a TOML file is UTF-8: {exc}") from None
-        return ClearanceBlock(from_toml(text, source), source)
-    return ClearanceBlock(from_xml(decode_xml(data, source), source), source)
+        return ClearanceBlock(from_toml(text, source), source, "file")
+    return ClearanceBlock(from_xml(decode_xml(data, source), source), source, "file")
 
 
 def from_xml(text: str, source: str) -> ET.Element:

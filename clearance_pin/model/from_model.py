@@ -76,7 +76,8 @@ def describe_model(
     beside = clearance_block(clearances, dict_source=source)
     block = beside.element if beside is not None else empty_block()
     block_source = beside.source if beside is not None else source
-    contents = read_block(block_source, block, model, joint_table(model, "model"))
+    kind = beside.kind if beside is not None else "model"
+    contents = read_block(block_source, block, model, joint_table(model, "model"), kind)
     from_file = beside.source if beside is not None and beside.source != source else None
     description = describe(model, contents, combined_source(source, from_file), name or model.name)
     changes: dict[str, Any] = {}

@@ -49,6 +49,7 @@ from .block import (
 from .description import MechanismDescription, combined_source, describe
 from .mjcf_orientation import matrix_quat
 from .mjcf_placements import FilePlacements, read_placements
+from .reference_sizes import mjcf_shapes
 
 SUPPORTED = (
     "use hinge, slide or free joints, one joint per body (a ball joint with play: a free joint "
@@ -88,7 +89,9 @@ def read_mjcf(
     _add_missing_sites(model, placements)
     check_placements(model, placements, source)
     block = beside or ClearanceBlock(empty_block(), source)
-    contents = read_block(block.source, block.element, model, joint_table(model, "MJCF", SUPPORTED))
+    table = joint_table(model, "MJCF", SUPPORTED)
+    shapes = mjcf_shapes(placements.tree)
+    contents = read_block(block.source, block.element, model, table, block.kind, shapes)
     geometry = MjcfGeometry(rewritten, source)
     return describe(
         model,

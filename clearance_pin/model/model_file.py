@@ -35,6 +35,7 @@ from .block import BLOCK, ClearanceBlock, JointTable, empty_block, read_block
 from .clearance_file import ClearanceSource, clearance_block
 from .description import MechanismDescription, combined_source, describe
 from .mjcf import read_mjcf
+from .reference_sizes import urdf_shapes
 from .xml_text import decode_xml, parse, xml_text
 from .xml_values import number, vector
 
@@ -108,7 +109,9 @@ def _read(
         )
     block = beside or ClearanceBlock(own if own is not None else empty_block(), source)
     types = {name: str(element.get("type")) for name, element in reader.urdf_joints.items()}
-    contents = read_block(block.source, block.element, model, JointTable(types, "URDF"))
+    table = JointTable(types, "URDF")
+    shapes = urdf_shapes(reader.root)
+    contents = read_block(block.source, block.element, model, table, block.kind, shapes)
     collision = CollisionGeometry(text, source, directories) if reader.has_collision() else None
     return describe(
         model,

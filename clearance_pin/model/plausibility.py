@@ -30,7 +30,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import SuspectValueWarning
-from .clearance import ALPHA
+from .clearance import ALPHA, Clearance
 from .dimensions import Dimension
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint
 
@@ -105,10 +105,20 @@ def warn_large_clearances(mechanism: Checked, stacklevel: int = 2) -> None:
             _warn(
                 f"{mechanism.source}: joint {joint.name!r}: clearance {play:.6g} m is "
                 f"{100 * play / size:.3g} % of its part's size {size:.6g} m (journal length or "
-                f"distance between joint centres; warned above {100 * CLEARANCE_FRACTION:g} %). "
+                f"distance between joint centres; warned above {100 * CLEARANCE_FRACTION:g} %; the "
+                f"largest play: {_largest_play(joint.clearance)}). "
                 "Clearances are in metres: 50 um is 5e-05.",
                 stacklevel,
             )
+
+
+def _largest_play(clearance: Clearance) -> str:
+    """The attribute(s) of the block that give a clearance its largest play."""
+    if clearance.max_play == clearance.axial:
+        return "axial_clearance"
+    if clearance.play_z is not None and clearance.max_play == clearance.play_z:
+        return "play_z"
+    return "radial_clearance or diametral_clearance / 2"
 
 
 def limits_of(model: pin.Model, joint_id: int) -> tuple[float, float] | None:
@@ -139,6 +149,8 @@ def nominal_problem(model: pin.Model, joint_id: int, value: float) -> str | None
         return None
     if revolute:
         problem += f"; q is in radians ({value:.6g} deg would be {math.radians(value):.6g} rad)"
+    else:
+        problem += "; q of a prismatic joint is a length, in metres (in a file: in its unit)"
     return problem
 
 
@@ -194,7 +206,7 @@ def warn_wide_tolerances(
             size, basis = mechanism.length_scale(), "the mechanism's length scale (an offset)"
         if half > TOLERANCE_FRACTION * size:
             _warn(
-                f"{mechanism.source}: dimension {dimension.name!r}: +/- {half:.6g} m is "
+                f"{mechanism.source}: dimension {dimension.name!r}: tolerance +/- {half:.6g} m is "
                 f"{100 * half / size:.3g} % of {basis} {size:.6g} m (warned above "
                 f"{100 * TOLERANCE_FRACTION:g} %); tolerances are in metres: +/- 50 um is 5e-05",
                 stacklevel,
