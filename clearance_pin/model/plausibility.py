@@ -140,8 +140,8 @@ def nominal_problem(model: pin.Model, joint_id: int, value: float) -> str | None
     limits = limits_of(model, joint_id)
     if limits is not None and not (limits[0] - LIMIT_SLACK <= value <= limits[1] + LIMIT_SLACK):
         problem = (
-            f"nominal value {value:.6g} {unit} is outside the URDF limits "
-            f"[{limits[0]:.6g}, {limits[1]:.6g}] {unit}"
+            f"nominal value {value:.6g} {unit} is outside the joint's limits (URDF <limit>, "
+            f"MJCF range) [{limits[0]:.6g}, {limits[1]:.6g}] {unit}"
         )
     elif revolute and abs(value) > TURN:
         problem = f"nominal value {value:.6g} rad is more than a turn"
