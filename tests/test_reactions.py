@@ -25,7 +25,7 @@ import clearance_pin
 from clearance_pin import ClearancePinError, Gravity, PointForce, Torque
 from clearance_pin.equilibrium.poses import clearance_frames
 from clearance_pin.equilibrium.residuals import STATICS_TOLERANCE
-from clearance_pin.errors import NotFoundError
+from clearance_pin.errors import NotFoundError, SolverError
 
 MODELS = sorted((Path(__file__).resolve().parents[1] / "models").glob("*.urdf"))
 TOLERANCE = 1e-10  # of the load (the issue's target)
@@ -390,17 +390,22 @@ def test_linear_answer_of_the_tilted_spin_balances():
     assert per_body_imbalance(equilibrium)[0] <= TOLERANCE
 
 
-def test_exact_load_along_a_tilted_free_spin_is_held_and_reported():
+def test_exact_load_along_a_tilted_free_spin_is_held_and_refused():
     """A shaft free to spin in an ideal sleeve on an arm whose journal play lets it tilt by
     0.01 rad; a torque normal to the nominal spin axis. At the tilted pose the torque has a
     component of about sin(0.01) along the spin, which nothing blocks and a torque fixed in space
-    would drive for ever: there is no equilibrium nearby. The exact answer holds the spin where
-    the linear one put it (as a drive or the least friction would) and says so: the share held is
-    reported (``held_by_gauge``, a note), and the reactions carry it as their ``held`` part, so
-    every body balances (it was ok=True with 4.5e-4 of the load unbalanced and unreported)."""
+    would drive for ever: there is no equilibrium nearby. The answer holding the spin where the
+    linear one put it (as a drive or the least friction would) depends on the path (no contact
+    carries that share), so it is not ``ok`` and is refused with a SolverError naming the held
+    share; the error's answer reports it (``held_by_gauge``, a note) and its reactions carry it as
+    their ``held`` part, so every body balances (it was ok=True with 4.5e-4 of the load
+    unbalanced and unreported, then ok=True with the share reported)."""
     mechanism = clearance_pin.loads(TILTED_SPIN)
     loads = [PointForce("arm", [100.0, 0, 0], [0, 0, 0.05]), Torque("shaft", [0, 0, 1.0])]
-    equilibrium = mechanism.solve(loads=loads, exact=True)
+    with pytest.raises(SolverError, match="only the gauge holds that share") as refused:
+        mechanism.solve(loads=loads, exact=True)
+    equilibrium = refused.value.answer
+    assert not equilibrium.ok
     held = equilibrium.residuals["held_by_gauge"]
     assert 1e-5 < held < 1e-2 and "held where the linear answer puts them" in equilibrium.note
     assert per_body_imbalance(equilibrium)[0] <= TOLERANCE
@@ -414,20 +419,25 @@ def test_exact_point_load_off_a_tilted_spin_axis_lets_the_spin_settle():
     axis, so the linear answer leaves the spin free): at the pose the play tilts, the pull has a
     moment about the spin axis, and the shaft turns until the point lies where that moment
     vanishes, a stable equilibrium nearby (like a pendulum); the sleeve's slide, which the tilted
-    pull also works on but nothing restores, is held and reported. Every body balances. Pushed
-    instead of pulled, the spin has no stable position nearby and is held too."""
+    pull also works on but nothing restores, is held: the answer is refused as above, and the
+    error's answer reports it, every body balanced. Pushed instead of pulled, the spin has no
+    stable position nearby and is held too."""
     mechanism = clearance_pin.loads(TILTED_SPIN)
     pull = [
         PointForce("arm", [100.0, 0, 0], [0, 0, 0.05]),
         PointForce("shaft", [0, 100.0, 0], [0.05, 0.01, 0.0]),
     ]
-    settled = mechanism.solve(loads=pull, exact=True)
+    with pytest.raises(SolverError, match="only the gauge holds that share") as refused:
+        mechanism.solve(loads=pull, exact=True)
+    settled = refused.value.answer
     assert "free motions settled" in settled.solver_status
     assert abs(settled.torsors["sleeve"][3]) > 1e-5  # the spin turned
     assert per_body_imbalance(settled)[0] <= TOLERANCE
-    pushed = mechanism.solve(
-        loads=[pull[0], PointForce("shaft", [0, -100.0, 0], [0.05, 0.01, 0.0])], exact=True
-    )
+    with pytest.raises(SolverError, match="only the gauge holds that share") as refused:
+        mechanism.solve(
+            loads=[pull[0], PointForce("shaft", [0, -100.0, 0], [0.05, 0.01, 0.0])], exact=True
+        )
+    pushed = refused.value.answer
     assert "free motions settled" not in pushed.solver_status
     assert pushed.residuals["held_by_gauge"] > 1e-6
     assert per_body_imbalance(pushed)[0] <= TOLERANCE

@@ -30,6 +30,7 @@ from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_
 from ..model.clearance import ALPHA, BETA, GAMMA
 from ..numerics import null_space
 from . import ipopt
+from .contact_split import least_norm_split
 from .kkt import ACCEPT_KKT
 from .outputs import output_displacements, resolve_outputs
 from .prepared import linear_setup, statics_weights
@@ -327,6 +328,10 @@ def solve_exact_model(
             stats["return_status"] = f"ipopt: {stats['return_status']}, Newton-polished"
         else:
             parts = exact.evaluate(z, params, lam)
+    if polished is not None:
+        # a valley of equilibria (the exact potential flat along motions that keep the active
+        # contacts) is left where the path reached it: take the point nearest the linear answer
+        z, lam, parts = _nearest_on_flat_directions(exact, z0, z, lam, parts, params)
     equilibrium = _assemble(
         mechanism, exact, problem, configuration, z, lam, parts, sigma, stats, polished is not None
     )
@@ -372,6 +377,20 @@ def solve_exact_model(
             "drive or the least friction would (reported as the reactions' 'held' part)"
         )
         equilibrium = replace(equilibrium, note=note)
+        # no contact carries that share: where the gauge holds it is the path's choice (the
+        # default Newton path and IPOPT ended plays apart), so the answer is not verified
+        raise SolverError(
+            f"no exact equilibrium: {held:.2g} of the load works, at the exact model's solved "
+            "pose, along motions the linear model leaves free ("
+            + "; ".join(problem.free_descriptions)
+            + "), which do not settle nearby; only the gauge holds that share, and where it "
+            "holds it depends on the solver's path. Lock those motions (a drive, an ideal "
+            "joint) or use the small-displacement answer (exact=False); the held answer is "
+            "the error's .answer",
+            str(stats["return_status"]),
+            equilibrium.residuals,
+            equilibrium,
+        )
     if not equilibrium.ok:
         raise SolverError(
             "the exact solve did not reach a verified optimum",
@@ -490,6 +509,50 @@ def polish_exact(
     return (z, lam, parts) if (feasible and pushes) else None
 
 
+FLAT_CURVATURE = 1e-9  # of the largest Hessian entry: a direction of no curvature
+FLAT_ROUNDS = 6
+
+
+def _flat_directions(exact: ExactProblem, lam, parts: ExactParts) -> np.ndarray:
+    r"""Directions (n, k) along which the exact answer is not isolated: they keep the loaded
+    contacts and the equalities (null space N of their Jacobian) and the Lagrangian has no
+    curvature along them (eigenvectors of :math:`N^T \nabla^2 L\, N` with eigenvalues within
+    :data:`FLAT_CURVATURE` of the largest Hessian entry)."""
+    n_in = len(exact.shapes)
+    rows = np.concatenate([np.flatnonzero(lam[:n_in] != 0.0), np.arange(n_in, exact.lower.size)])
+    keep = null_space(parts.jacobian[rows]) if rows.size else np.eye(parts.gradient.size)
+    if not keep.shape[1]:
+        return keep
+    reduced = keep.T @ parts.hessian @ keep
+    values, vectors = np.linalg.eigh(0.5 * (reduced + reduced.T))
+    size = max(1.0, float(np.abs(parts.hessian).max()))
+    return keep @ vectors[:, np.abs(values) <= FLAT_CURVATURE * size]
+
+
+def _nearest_on_flat_directions(exact: ExactProblem, z0, z, lam, parts: ExactParts, params):
+    r"""The verified answer moved along its flat directions (:func:`_flat_directions`) towards
+    the linear answer ``z0``: :math:`z + N N^T (z_0 - z)`, then the Newton polish on the same
+    contacts, repeated while it moves (at most :data:`FLAT_ROUNDS` times). Where the potential
+    is flat the answer depends on the path (IPOPT's barrier ends anywhere along the valley; the
+    Newton steps from z0 near its start): this is the point of the valley nearest z0, the same
+    for every backend. The answer given when no move verifies."""
+    n_in = len(exact.shapes)
+    for _ in range(FLAT_ROUNDS):
+        flat = _flat_directions(exact, lam, parts)
+        if not flat.shape[1]:
+            break
+        shift = flat @ (flat.T @ (z0 - z))
+        if np.linalg.norm(shift) <= 1e-12 * max(1.0, float(np.linalg.norm(z))):
+            break
+        upper = lam[:n_in] > 0.0
+        lower = np.isfinite(exact.lower[:n_in]) & (lam[:n_in] < 0.0)
+        moved = polish_exact(exact, z + shift, lam, params, upper, lower)
+        if moved is None:
+            break
+        z, lam, parts = moved
+    return z, lam, parts
+
+
 NEARBY_ROTATION = 0.1  # [rad] a motion that settles further than this is no settling in the play
 # a share of the load along a free motion at the solved pose may be held at the gauge when it is of
 # second order: at most this many times the largest joint rotation of the answer [per rad]
@@ -602,6 +665,7 @@ def _assemble(
     sides = frames_at(mechanism, configuration, placed)  # where the contact points are
     n_inequality = len(exact.contacts)
     lam = lam.copy()
+    images, gaps = [], []
     for j, (name, point) in enumerate(exact.contacts):
         M = relatives[name]
         r = np.array(point.point)
@@ -609,6 +673,17 @@ def _assemble(
         gap = point.bound - float(np.linalg.norm(d) if point.shape == "norm" else abs(d[0]))
         if gap > 1e-7 * point.bound and not polished_multipliers:
             lam[j] = 0.0  # interior-point leftovers on free points: no force there
+        images.append(d)
+        gaps.append(gap)
+    loop_rows = parts.jacobian[
+        n_inequality : parts.jacobian.shape[0] - problem.free_motions.shape[1]
+    ]
+    lam[:n_inequality] = _split_multipliers(exact, parts.jacobian, loop_rows, lam, images, gaps,
+                                            sigma)  # fmt: skip
+    for j, (name, point) in enumerate(exact.contacts):
+        M = relatives[name]
+        r = np.array(point.point)
+        d, gap = images[j], gaps[j]
         multiplier = abs(lam[j])
         if point.shape == "norm":
             local = -2.0 * sigma * multiplier * d / point.bound**2
@@ -693,6 +768,39 @@ def _assemble(
         mechanism=mechanism,
         configuration=configuration,
     )
+
+
+def _split_multipliers(exact: ExactProblem, jacobian, loop_rows, lam, images, gaps, sigma):
+    r"""The contact multipliers with the forces of the touching contacts (gap within 1e-7 of the
+    play) split by least norm (:func:`.contact_split.least_norm_split`), as the linear model's
+    (:func:`.linear_answer.split_force_rows`): a unit force [N] at contact j is
+    :math:`\lambda_j = c_j^2 / (2 \sigma \lVert d_j \rVert)` (ball, disc) or
+    :math:`\pm c_j / \sigma` (slab side), its generalised force :math:`J_j^T \lambda_j` less
+    what the loops' rigid conditions (``loop_rows``) hold."""
+    count = len(exact.contacts)
+    lam = lam[:count].copy()
+    touching = [j for j in range(count) if gaps[j] <= 1e-7 * exact.contacts[j][1].bound]
+    if len(touching) < 2:
+        return lam
+    per_newton = np.zeros(count)
+    magnitudes = np.zeros(count)
+    for j in touching:
+        point, d = exact.contacts[j][1], images[j]
+        if point.shape == "norm":
+            size = float(np.linalg.norm(d))
+            per_newton[j] = point.bound**2 / (2.0 * sigma * max(size, 1e-300))
+        else:
+            side = np.sign(lam[j]) if lam[j] != 0.0 else np.sign(d[0])
+            per_newton[j] = side * point.bound / sigma
+        magnitudes[j] = abs(lam[j]) / abs(per_newton[j]) if per_newton[j] else 0.0
+    columns = jacobian[touching].T * per_newton[touching]
+    if loop_rows.size:
+        columns = columns - loop_rows.T @ np.linalg.lstsq(loop_rows.T, columns, rcond=None)[0]
+    given = magnitudes[touching]
+    split = least_norm_split(columns, given)
+    if split is not given:
+        lam[touching] = split * per_newton[touching]
+    return lam
 
 
 def _difference(exact: Equilibrium, linear: Equilibrium, points) -> dict:

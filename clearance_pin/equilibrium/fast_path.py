@@ -316,6 +316,7 @@ class FastTerms:
             free_motions,
             loads,
             output_points,
+            answer["x"],
         )
 
     def residuals(self, row: np.ndarray) -> Residuals:

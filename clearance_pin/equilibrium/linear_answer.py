@@ -4,13 +4,17 @@ Torsors, body twists, contact gaps and forces come from the stacked maps of the 
 the residuals the answer carries are measured here, not taken from the solver: statics (the
 wrench balance of the loads and the contact forces in N, per joint direction), penetration,
 closure conditioning, largest rotation.
-Used by a single solve (:mod:`.solve`) and by the batched Newton (:mod:`.batch`).
+Used by a single solve (:mod:`.solve`) and by the batched Newton (:mod:`.batch`); every engine's
+answer (closed forms, compiled kernel, NumPy active set, Clarabel, IPOPT) passes through
+:func:`linear_equilibrium`, where statically indeterminate contacts get the least-norm split of
+their forces (:mod:`.contact_split`), whichever engine found the optimum.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .contact_split import least_norm_split
 from .frozen import FieldTemplate
 from .lazy import LazyMapping, LazySequence, placements
 from .prepared import PreparedGeometry
@@ -72,6 +76,7 @@ def assemble_linear(
         problem.free_descriptions + flat_notes,
         loads,
         output_points,
+        x,
     )
 
 
@@ -89,12 +94,15 @@ def linear_equilibrium(
     free_motions,
     loads: tuple,
     output_points: tuple = (),
+    x: np.ndarray | None = None,
 ) -> Equilibrium:
     """The :class:`~.result.Equilibrium` of computed answer arrays: joint torsors (joints, 6)
     [m, rad], body twists (bodies, 6), contact gaps (m,) [m] and stacked force rows [N], the
     multipliers, the measured residuals, the potential [J], ``outcome`` = (status, solver status,
-    iterations, polished), ``times`` = (build, solve) [s]; contacts and body motions are computed
-    when read (:mod:`.lazy`)."""
+    iterations, polished), ``times`` = (build, solve) [s], the unknowns ``x`` (n,) (None: the
+    forces are reported as given); contacts and body motions are computed when read
+    (:mod:`.lazy`), the contact forces of statically indeterminate contacts split by least norm
+    (:func:`split_force_rows`)."""
     mechanism = prepared.mechanism
     owner = getattr(prepared, "nominal", prepared)  # the points of a trajectory share one
     template = owner.__dict__.get("_answer_template")
@@ -109,7 +117,7 @@ def linear_equilibrium(
     state["body_motions"] = LazyMapping(
         lambda: prepared.body_motions(twists, mechanism.model.names)
     )
-    state["contacts"] = LazySequence(lambda: _contacts(prepared, gaps, force_rows, multipliers))
+    state["contacts"] = LazySequence(lambda: _contacts(prepared, gaps, force_rows, multipliers, x))
     state["energy"] = energy
     state["residuals"] = measured
     state["free_motions"] = free_motions
@@ -121,13 +129,15 @@ def linear_equilibrium(
     return equilibrium
 
 
-def _contacts(prepared: PreparedGeometry, gaps, force_rows, multipliers) -> tuple[Contact, ...]:
-    """Every contact point with its gap, force and whether it touches (gap within 1e-7 of the
-    play, or 1e-6 while it carries a force)."""
+def _contacts(prepared: PreparedGeometry, gaps, force_rows, multipliers, x) -> tuple[Contact, ...]:
+    """Every contact point with its gap, force (:func:`split_force_rows`) and whether it
+    touches (gap within 1e-7 of the play, or 1e-6 while it carries a force)."""
     bounds = prepared.bounds
     active = (gaps <= ACTIVE_RELATIVE_GAP * bounds) | (
         (multipliers > 0.0) & (gaps <= 1e-6 * bounds)
     )
+    if x is not None:
+        force_rows = split_force_rows(prepared, x, force_rows, active)
     centres = prepared.joint_centres()
     return tuple(
         Contact(
@@ -146,4 +156,39 @@ def _contacts(prepared: PreparedGeometry, gaps, force_rows, multipliers) -> tupl
     )
 
 
-__all__ = ["ACTIVE_RELATIVE_GAP", "assemble_linear", "linear_equilibrium"]
+def split_force_rows(prepared: PreparedGeometry, x, force_rows, active) -> np.ndarray:
+    r"""The stacked force rows [N] with the forces of the touching contacts (``active``, (m,))
+    split by least norm (:func:`.contact_split.least_norm_split`); ``force_rows`` itself when the
+    split is unique.
+
+    A unit force at contact j acts along :math:`d_j`: :math:`-(o_j + S_j x) / \lVert o_j + S_j x
+    \rVert` (ball, disc), :math:`-\mathrm{sign}(o_j + s_j^T x)` (slab); its generalised force on
+    the reduced unknowns is :math:`G_{:,j} = (Z Q)^T S_j^T d_j`, so two splits with the same
+    :math:`G \mu` differ only by what the loops' rigid conditions hold (range of :math:`E^T`)."""
+    touching = np.flatnonzero(active)
+    if touching.size < 2:
+        return force_rows
+    terms = prepared.terms
+    row_contact = terms.contact_of_row
+    rows = np.flatnonzero(active[row_contact])
+    owner = row_contact[rows]
+    starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+    image = terms.contact_rows[rows] @ x + terms.contact_offsets[rows]
+    sizes = np.sqrt(np.add.reduceat(image * image, starts))
+    counts = np.diff(np.r_[starts, rows.size])
+    directions = np.where(
+        terms.is_norm[owner], -image / np.repeat(np.where(sizes > 0.0, sizes, 1.0), counts),
+        -np.sign(image),
+    )  # fmt: skip
+    given = np.sqrt(np.add.reduceat(force_rows[rows] ** 2, starts))
+    reduced = terms.contact_rows[rows] @ terms.x_from_y  # S_j Z Q: on the reduced unknowns
+    columns = np.add.reduceat(reduced * directions[:, None], starts, axis=0).T
+    split = least_norm_split(columns, given)
+    if split is given:
+        return force_rows
+    out = force_rows.copy()
+    out[rows] = np.repeat(split, counts) * directions
+    return out
+
+
+__all__ = ["ACTIVE_RELATIVE_GAP", "assemble_linear", "linear_equilibrium", "split_force_rows"]

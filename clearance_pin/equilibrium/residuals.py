@@ -14,7 +14,9 @@ A solver's status is no proof. Every answer is checked on the quantities of its 
   position) and ``largest_rotation_rad`` [rad];
 - exact model: ``closure`` (the largest loop equation [m or rad], redundant ones included) and
   ``held_by_gauge`` (the share of the load that the motions the linear model leaves free carry at
-  the solved pose, held where the linear answer put them; docs/method.md section 4);
+  the solved pose, held where the linear answer put them; docs/method.md section 4: no contact
+  carries it, so above the statics tolerance the answer is not ``ok``: where a gauge holds a load
+  depends on the path, not on the mechanism);
 - ``exact="auto"``: ``second_order_m`` [m], the estimated exact - linear difference at the
   outputs;
 - ``unblocked_load``: the share of the load along motions nothing blocks that the answer neglects
@@ -83,15 +85,19 @@ class Residuals(Mapping):
 
     def ok(self, tolerances: Tolerances = Tolerances()) -> bool:
         """Every contact inside its play, the contact forces balancing the load, no contact
-        pulling, and (exact model) the loops closed to ``tolerances.closure`` of the play."""
+        pulling, and (exact model) the loops closed to ``tolerances.closure`` of the play and no
+        more than ``tolerances.statics`` of the load held by the gauge (``held_by_gauge``: a load
+        that no contact carries, an imbalance like the statics residual's)."""
         closed = self.closure is None or self.closure <= tolerances.closure * max(
             self.clearance_m, 1e-12
         )
+        held = self.held_by_gauge is None or self.held_by_gauge <= tolerances.statics
         return (
             self.max_violation_rel <= tolerances.feasibility
             and self.statics <= tolerances.statics
             and self.dual_infeasibility <= tolerances.dual
             and closed
+            and held
         )
 
     def to_dict(self) -> dict[str, float]:

@@ -146,7 +146,8 @@ class Equilibrium:
     def ok(self) -> bool:
         """Residuals within tolerance (:meth:`.residuals.Residuals.ok`): every contact inside its
         play (to 1e-9 of that play), the loop closure held (exact model), the contact forces
-        balancing the load (statics), and no contact pulling (dual feasibility)."""
+        balancing the load (statics; exact model: no more than 1e-8 of it held by the gauge),
+        and no contact pulling (dual feasibility)."""
         return self.residuals.ok()
 
     def torsor(self, joint: str) -> np.ndarray:
