@@ -32,7 +32,7 @@ def least_norm_split(columns: np.ndarray, forces: np.ndarray) -> np.ndarray:
     r"""The least-norm non-negative split :math:`\mu^*` (a,) [N] of the contact forces ``forces``
     (a,) [N, >= 0] with the same resultant ``columns`` @ forces (module docstring); ``forces``
     itself when the columns (r, a) are independent (the split is unique) or when the
-    least-norm programme does not reach the same resultant to 1e-12 of it (then nothing is
+    least-norm programme does not reach the same resultant to 1e-9 of it (then nothing is
     changed)."""
     count = forces.size
     if count < 2 or not np.any(forces > 0.0):
@@ -53,7 +53,7 @@ def least_norm_split(columns: np.ndarray, forces: np.ndarray) -> np.ndarray:
             return forces
     split = np.maximum(split, 0.0)
     resultant = columns @ forces
-    if np.abs(columns @ split - resultant).max() > 1e-12 * max(
+    if np.abs(columns @ split - resultant).max() > 1e-9 * max(
         float(np.abs(columns).max()) * size, float(np.abs(resultant).max())
     ):
         return forces
@@ -62,26 +62,23 @@ def least_norm_split(columns: np.ndarray, forces: np.ndarray) -> np.ndarray:
 
 def _non_negative(rows: np.ndarray, target: np.ndarray) -> np.ndarray | None:
     r"""The least-norm :math:`\mu \ge 0` with ``rows`` :math:`\mu` = ``target`` (rows
-    orthonormal): non-negative least squares on :math:`[w R; I] \mu \approx [w t; 0]`, then the
-    least-norm solution of the equality on the support found, kept when it is non-negative and
-    optimal (the multiplier :math:`\nu` of :math:`\mu_S = R_S^T \nu` gives
-    :math:`R_j^T \nu \le 0` off the support); otherwise the weighted answer, or None when it
-    misses the equality."""
+    orthonormal): non-negative least squares on :math:`[w R; I] \mu \approx [w t; 0]` (the
+    equality weighted :data:`EQUALITY_WEIGHT`), then the least-norm solution of the equality on
+    the support found, kept when it is non-negative and no larger; otherwise the weighted answer,
+    or None when it misses the equality by more than 1e-9 of the target."""
     count = rows.shape[1]
     weight = EQUALITY_WEIGHT
     matrix = np.vstack([weight * rows, np.eye(count)])
     rough, _ = nnls(matrix, np.concatenate([weight * target, np.zeros(count)]), maxiter=50 * count)
-    support = rough > 1e-9 * max(float(rough.max(initial=0.0)), 1e-300)
+    scale = float(np.abs(rough).max(initial=0.0))
+    support = rough > 1e-9 * scale
     if support.any():
-        on_support = np.linalg.lstsq(rows[:, support], target, rcond=None)[0]
-        nu = np.linalg.lstsq(rows[:, support].T, on_support, rcond=None)[0]
         exact = np.zeros(count)
-        exact[support] = on_support
-        scale = float(np.abs(rough).max())
+        exact[support] = np.linalg.lstsq(rows[:, support], target, rcond=None)[0]
         if (
-            on_support.min() >= -1e-12 * scale
+            exact.min() >= -1e-12 * scale
             and np.abs(rows @ exact - target).max() <= 1e-12 * scale
-            and (rows.T @ nu)[~support].max(initial=0.0) <= 1e-9 * scale
+            and np.linalg.norm(exact) <= np.linalg.norm(rough) * (1.0 + 1e-9)
         ):
             return exact
     if np.abs(rows @ rough - target).max() <= 1e-9 * float(np.abs(target).max(initial=0.0)):

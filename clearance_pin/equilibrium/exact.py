@@ -377,16 +377,16 @@ def solve_exact_model(
             "drive or the least friction would (reported as the reactions' 'held' part)"
         )
         equilibrium = replace(equilibrium, note=note)
-        # no contact carries that share: where the gauge holds it is the path's choice (the
-        # default Newton path and IPOPT ended plays apart), so the answer is not verified
+        # no contact carries that share: the answer is no equilibrium of the mechanism, and
+        # where the gauge holds the motion is a convention, not the mechanism's (issue 21)
         raise SolverError(
             f"no exact equilibrium: {held:.2g} of the load works, at the exact model's solved "
             "pose, along motions the linear model leaves free ("
             + "; ".join(problem.free_descriptions)
-            + "), which do not settle nearby; only the gauge holds that share, and where it "
-            "holds it depends on the solver's path. Lock those motions (a drive, an ideal "
-            "joint) or use the small-displacement answer (exact=False); the held answer is "
-            "the error's .answer",
+            + "), which do not settle nearby; only the gauge holds that share (no contact "
+            "carries it, and where the gauge holds the motion is a convention, not the "
+            "mechanism's). Lock those motions (a drive, an ideal joint) or use the "
+            "small-displacement answer (exact=False); the held answer is the error's .answer",
             str(stats["return_status"]),
             equilibrium.residuals,
             equilibrium,

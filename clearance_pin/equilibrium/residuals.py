@@ -15,8 +15,8 @@ A solver's status is no proof. Every answer is checked on the quantities of its 
 - exact model: ``closure`` (the largest loop equation [m or rad], redundant ones included) and
   ``held_by_gauge`` (the share of the load that the motions the linear model leaves free carry at
   the solved pose, held where the linear answer put them; docs/method.md section 4: no contact
-  carries it, so above the statics tolerance the answer is not ``ok``: where a gauge holds a load
-  depends on the path, not on the mechanism);
+  carries it, so above the statics tolerance the answer is not ``ok``: it is no equilibrium of the
+  mechanism, and where the gauge holds the motion is a convention);
 - ``exact="auto"``: ``second_order_m`` [m], the estimated exact - linear difference at the
   outputs;
 - ``unblocked_load``: the share of the load along motions nothing blocks that the answer neglects
