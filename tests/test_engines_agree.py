@@ -12,11 +12,14 @@ The engines, each forced on its own copy of the mechanism (cold caches):
   missing or cannot load it (counted);
 - ``solve_many``: the batched paths (``batch.py``, ``block_batch.py``), the load as the second of
   two cases;
-- exact: ``exact=True`` by the default path and with ``backend="ipopt"``, on one mechanism in
-  four (the exact model's CasADi build costs about 0.1 s a mechanism).
+- exact: ``exact=True`` by the default path and with ``backend="ipopt"``.
 
 A mechanism whose loops are near a toggle position (closure conditioning below 1e-6: the library
-warns that the answer loses about -log10 of it in digits) is counted, not compared.
+warns that the answer loses about -log10 of it in digits) is counted, not compared. Where the
+linear optimum is not unique (``free_motions`` names directions "bounded but not loaded") the
+torsors are counted, not compared: the answer is projected to the minimum-norm point only when
+that projection stays inside the play, so the point returned along those directions depends on
+the engine (a known limitation, docs/method.md section 3.2); energies and forces are compared.
 
 The load is the mechanism's own, cleared of its components along the motions nothing blocks
 (tests/oracle.py ``bounded_loads``), so that an equilibrium exists; the other load is a perturbed
@@ -51,7 +54,6 @@ EXAMPLES = 250  # drawn, to reach MECHANISMS
 TORSOR = 1e-7  # of the largest clearance
 ENERGY = 1e-8  # of the energy
 FORCE = 1e-6  # of the largest contact force
-EXACT_EVERY = 4  # the exact paths on one mechanism in this many
 
 
 def _perturbed(loads, rng) -> list:
@@ -123,15 +125,25 @@ class Engines:
         return answers
 
 
+def _flat(answer) -> bool:
+    """The (linear) optimum is not unique: directions bounded by the play but not loaded."""
+    linear = answer.linear if answer.formulation == "exact" else answer
+    return any(note.startswith("bounded but not loaded") for note in linear.free_motions)
+
+
 def _disagreements(reference, other, clearance: float) -> dict[str, float]:
     """Torsor, energy and contact-force differences of ``other`` from ``reference``, each over
-    its tolerance's scale (above 1: a disagreement)."""
-    torsor = max(np.abs(other.torsors[k] - t).max() for k, t in reference.torsors.items())
+    its tolerance's scale (above 1: a disagreement); torsors left out (None) where either
+    optimum is not unique."""
     energy = abs(other.energy - reference.energy)
     forces, reference_forces = _forces(other), _forces(reference)
     largest = float(np.abs(reference_forces).max(initial=0.0))
+    torsor = None
+    if not (_flat(reference) or _flat(other)):
+        torsor = max(np.abs(other.torsors[k] - t).max() for k, t in reference.torsors.items())
+        torsor /= max(TORSOR * clearance, 1e-300)
     return {
-        "torsors": torsor / max(TORSOR * clearance, 1e-300),
+        "torsors": torsor,
         "energies": energy / max(ENERGY * abs(reference.energy), 1e-300),
         "contact forces": float(np.abs(forces - reference_forces).max(initial=0.0))
         / max(FORCE * largest, 1e-300),
@@ -185,9 +197,7 @@ def test_every_engine_gives_the_same_answer():
             counts["ill-conditioned (warned, not compared)"] += 1
             return
         groups = [("default", answers)]
-        if counts["mechanisms"] % EXACT_EVERY == 1:
-            counts["exact mechanisms"] += 1
-            groups.append(("exact", engines.exact(text, loads)))
+        groups.append(("exact", engines.exact(text, loads)))
         for reference_name, group in groups:
             reference = group.get(reference_name)
             if reference is None:
@@ -197,6 +207,9 @@ def test_every_engine_gives_the_same_answer():
                     continue
                 for quantity, ratio in _disagreements(reference, answer, clearance).items():
                     key = f"{quantity}{' (exact)' if reference_name == 'exact' else ''}"
+                    if ratio is None:
+                        counts[f"not compared, optimum not unique: {key}"] += 1
+                        continue
                     counts[f"pairs: {key}"] += 1
                     if not ratio <= 1.0:
                         counts[f"disagreements: {key}"] += 1
