@@ -1,4 +1,5 @@
-# Two entry points for a fresh machine (Python 3.11+ and PyPI only); each makes its own .venv.
+# Two entry points for a fresh machine (Python 3.11+ and PyPI only); each makes its own .venv, then
+# compiles the numba kernel of re-solves into numba's cache (about a minute, once): no solve waits.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -9,6 +10,7 @@ $(BIN)/clearance-pin: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test,plot,fast,distributed]"
+	$(BIN)/clearance-pin compile
 	touch $@
 
 demo: $(BIN)/clearance-pin

@@ -4,6 +4,7 @@
                         [--plot FILE] [--gravity on|off] [--package-dir DIR]
     clearance-pin envelope MODEL [--clearances FILE] [--output FRAME] [--plot F] [--json F]
     clearance-pin tolerance MODEL [--clearances FILE] ...   (``clearance-pin tolerance --help``)
+    clearance-pin compile              (the compiled kernel of re-solves, once per machine)
     clearance-pin --version            (also: python -m clearance_pin ...)
 
 MODEL is a URDF or MJCF file; every sub-command takes ``--clearances FILE`` (the clearances
@@ -24,7 +25,10 @@ Exit status:
   ``--json`` in an existing folder);
 - 3: no equilibrium: the load drives a motion that nothing blocks (the line names the motion);
   ``envelope``: an output moves without bound along such a motion (the line names it);
-- 4: the solver did not reach a verified answer (the line gives its status and residuals).
+- 4: the solver did not reach a verified answer (the line gives its status and residuals);
+- 5: ``compile``: numba is installed but cannot compile or cache the kernel (a read-only
+  install: the line names numba's reason and the fix, ``NUMBA_CACHE_DIR``); ``compile`` exits
+  with 0 when numba is not installed (the solves go the NumPy way).
 """
 
 from __future__ import annotations
@@ -135,6 +139,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     solve.set_defaults(run=_solve)
     tolerance_command: ModuleType | None
+    from . import compile_command
     from .envelope import command as envelope_command
 
     envelope_command.register(commands)
@@ -146,6 +151,7 @@ def build_parser() -> argparse.ArgumentParser:
         tolerance = commands.add_parser("tolerance", help="tolerance propagation (Flores)")
         tolerance_command.add_arguments(tolerance)
         tolerance.set_defaults(run=tolerance_command.run)
+    compile_command.register(commands)
     return parser
 
 

@@ -11,8 +11,9 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-OK, OUT_OF_TOLERANCE, BAD_INPUT, NO_EQUILIBRIUM, SOLVER_FAILED = range(5)
-"""The exit statuses (:mod:`clearance_pin.cli`'s docstring)."""
+OK, OUT_OF_TOLERANCE, BAD_INPUT, NO_EQUILIBRIUM, SOLVER_FAILED, KERNEL_UNAVAILABLE = range(6)
+"""The exit statuses (:mod:`clearance_pin.cli`'s docstring); KERNEL_UNAVAILABLE: ``compile``
+found numba unable to compile or cache the kernel (:mod:`clearance_pin.compile_command`)."""
 
 
 def add_model_arguments(parser: argparse.ArgumentParser, what: str = "") -> None:
@@ -48,6 +49,7 @@ def model_options(args: argparse.Namespace) -> dict[str, Any]:
 
 __all__ = [
     "BAD_INPUT",
+    "KERNEL_UNAVAILABLE",
     "NO_EQUILIBRIUM",
     "OK",
     "OUT_OF_TOLERANCE",

@@ -564,12 +564,36 @@ def _vector(values) -> np.ndarray:
     return np.ascontiguousarray(values, dtype=np.float64)
 
 
+def kernel_cache_dir() -> str | None:
+    """The folder of numba's on-disk cache the loaded kernel was read from or written to (under
+    ``NUMBA_CACHE_DIR`` when set, else the ``__pycache__`` beside :mod:`.kernel`, else numba's
+    per-user cache when that is not writable); None when the kernel is not loaded."""
+    module = _loaded.get("kernel")
+    if module is None:
+        return None
+    return str(module.solve_cases.stats.cache_path)  # type: ignore[attr-defined]
+
+
+def kernel_compiled_now() -> bool:
+    """Whether this process compiled the kernel (numba's cache missed it) rather than loading it
+    from numba's cache; False when it is not loaded."""
+    module = _loaded.get("kernel")
+    if module is None:
+        return False
+    return any(
+        sum(function.stats.cache_misses.values()) > 0  # type: ignore[attr-defined]
+        for function in (module.solve_cases, module.load_objective)  # type: ignore[attr-defined]
+    )
+
+
 __all__ = [
     "COMPILE_AFTER",
     "BoundLoads",
     "FastTerms",
     "compiled_kernel",
     "fast_terms",
+    "kernel_cache_dir",
+    "kernel_compiled_now",
     "kernel_load_time",
     "kernel_loading",
     "load_kernel",
