@@ -77,7 +77,6 @@ class EquilibriumBatch(Sequence):
         arrays = self._arrays
         if arrays is not None and "stacked" in arrays:  # the items carry the answers
             arrays = {key: value for key, value in arrays.items() if key != "stacked"}
-            arrays["batched"] = np.zeros_like(self._arrays["batched"])
         return (EquilibriumBatch, ([self[i] for i in range(len(self))], arrays))
 
     def torsors(self, joint: str) -> np.ndarray:
