@@ -19,14 +19,18 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import ClearancePinError
+from ..errors import ArgumentError, ClearancePinError, NotFoundError
+from ..model.frames import frame_id as find_frame
 from ..progress import Progress
+from .batch_answers import StackedAnswers, contact_forces, frame_displacements
 from .batch_newton import batched_newton, stacked_evaluation
+from .batch_reactions import PARTS, stacked_reactions
 from .cone_solver import acceptance
 from .fast_path import WARM_ROUNDS, fast_terms
 from .kkt import UNLOADED
 from .linear_answer import assemble_linear
 from .prepared import prepared_geometry
+from .reactions import FRAMES
 from .reduction import loaded_problem
 from .residuals import FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
 
@@ -70,7 +74,10 @@ class EquilibriumBatch(Sequence):
     def __reduce__(self):
         """Pickled with every item assembled (what assembles one is a closure, which does not
         travel) and the whole-batch arrays: a Dask or process task may return a batch."""
-        return (EquilibriumBatch, ([self[i] for i in range(len(self))], self._arrays))
+        arrays = self._arrays
+        if arrays is not None and "stacked" in arrays:  # the items carry the answers
+            arrays = {key: value for key, value in arrays.items() if key != "stacked"}
+        return (EquilibriumBatch, ([self[i] for i in range(len(self))], arrays))
 
     def torsors(self, joint: str) -> np.ndarray:
         """Torsor of ``joint`` for every case, (N, 6) [m, rad] (NaN for failed cases)."""
@@ -89,17 +96,133 @@ class EquilibriumBatch(Sequence):
             rows.append(np.full(6, np.nan) if isinstance(item, Exception) else item.torsor(joint))
         return np.array(rows).reshape(-1, 6)
 
+    def _stacked_answers(self) -> StackedAnswers | None:
+        """The answers of the cases solved on stacked arrays (:mod:`.batch_answers`), None when
+        the batch has none (every item a single solve, or assembled before pickling)."""
+        source = (self._arrays or {}).get("stacked")
+        if callable(source):
+            source = self._arrays["stacked"] = source()  # type: ignore[index]
+        return source
+
+    def _read(self, shape: tuple, from_arrays, from_item) -> np.ndarray:
+        """A whole-batch array (N, *shape): ``from_arrays(answers)`` (its rows, and the mask of
+        the rows it gives) for the cases solved on stacked arrays, ``from_item(item)`` for the
+        cases solved one by one, NaN for errors."""
+        out = np.full((len(self), *shape), np.nan)
+        rest: Sequence[int] = range(len(self))
+        answers = self._stacked_answers()
+        if answers is not None:
+            values, given = from_arrays(answers)
+            out[given] = values[given]
+            rest = np.flatnonzero(~given).tolist()
+        for i in rest:
+            item = self[i]
+            if not isinstance(item, Exception):
+                out[i] = from_item(item)
+        return out
+
     def frame_displacements(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
         """World displacement of a Pinocchio frame in every case: translations (N, 3) [m] of its
         origin and rotations (N, 3) [rad], world axes (NaN for failed cases); see
-        :meth:`~clearance_pin.equilibrium.result.Equilibrium.frame_displacement`."""
-        translations = np.full((len(self), 3), np.nan)
-        rotations = np.full((len(self), 3), np.nan)
-        for i in range(len(self)):
-            item = self[i]
+        :meth:`~clearance_pin.equilibrium.result.Equilibrium.frame_displacement` (small
+        displacements: :math:`(v_b + \\omega_b \\times p_f, \\omega_b)`)."""
+        mechanism = self._mechanism()
+        frame_id = find_frame(mechanism.model, frame) if mechanism is not None else None
+        if mechanism is not None and frame_id is None:
+            names = [f.name for f in mechanism.model.frames]
+            raise NotFoundError("frame", frame, names, mechanism.name)
+
+        def from_arrays(answers):
+            return np.hstack(frame_displacements(answers, frame_id)), answers.stacked
+
+        both = self._read((6,), from_arrays, lambda item: np.hstack(item.frame_displacement(frame)))
+        return both[:, :3], both[:, 3:]
+
+    def reactions(self, joint: str, frame: str = "joint", part: str | None = None) -> np.ndarray:
+        """The wrench the parent part exerts on the child through ``joint`` in every case,
+        (force, moment) (N, 6) [N, N m] (NaN for failed cases), as
+        :meth:`~clearance_pin.equilibrium.result.Equilibrium.reaction` gives it
+        (``np.asarray(item.reaction(joint, frame))``): ``frame="joint"``, clearance-frame axes
+        and moment about the joint centre; ``"world"``, world axes and moment about the world
+        origin. ``part``: None for the whole reaction, or one of its parts ``"contact"``,
+        ``"rigid"``, ``"drive"``, ``"held"`` (:class:`~.reactions.Reaction`)."""
+        if part is not None and part not in PARTS:
+            raise ArgumentError("part", f"None or one of {', '.join(PARTS)}", part)
+        self._check_joint(joint)
+
+        def from_arrays(answers):
+            reactions = stacked_reactions(answers)
+            values = reactions.reaction(joint, frame, part)
+            return values, answers.stacked & np.all(np.isfinite(values), axis=1)
+
+        def from_item(item):
+            reaction = item.reaction(joint, frame)
+            return reaction.wrench if part is None else getattr(reaction, part)
+
+        if frame not in FRAMES:
+            raise ArgumentError("frame", "'joint' or 'world'", frame)
+        return self._read((6,), from_arrays, from_item)
+
+    def contact_forces(self, joint: str) -> np.ndarray:
+        """Force of the parent on the child at each contact point of ``joint`` in every case,
+        (N, k, 3) [N], the joint's clearance frame, the points in the order of
+        :attr:`~clearance_pin.equilibrium.result.Equilibrium.contacts` (their names:
+        :meth:`contact_points`); NaN for failed cases."""
+        self._check_joint(joint)
+        names = self.contact_points(joint)
+
+        def from_arrays(answers):
+            chosen = [
+                k for k, c in enumerate(answers.prepared.geometry.contacts) if c.joint == joint
+            ]
+            return contact_forces(answers)[:, chosen], answers.stacked
+
+        def from_item(item):
+            return np.array([c.force for c in item.contacts if c.joint == joint]).reshape(-1, 3)
+
+        return self._read((len(names), 3), from_arrays, from_item)
+
+    def contact_points(self, joint: str) -> tuple[str, ...]:
+        """The names of ``joint``'s contact points (``Contact.point``), in the order of
+        :meth:`contact_forces`."""
+        self._check_joint(joint)
+        answers = self._stacked_answers()
+        if answers is not None:
+            contacts = answers.prepared.geometry.contacts
+            return tuple(c.contact.name for c in contacts if c.joint == joint)
+        for item in self:
             if not isinstance(item, Exception):
-                translations[i], rotations[i] = item.frame_displacement(frame)
-        return translations, rotations
+                return tuple(c.point for c in item.contacts if c.joint == joint)
+        return ()
+
+    def drive_torques(self) -> dict[str, np.ndarray]:
+        """Driven joint name -> its drive torque about the joint axis [N m] in every case (N,)
+        (the drive force [N] of a driven prismatic joint): the ``drive`` part of
+        :meth:`reactions` in the joint's clearance frame (x = joint axis), component 3 (0 for a
+        prismatic joint), as the bearing-load table reports it; NaN for failed cases."""
+        mechanism = self._mechanism()
+        if mechanism is None:
+            return {}
+        out = {}
+        for name, joint in mechanism.joints.items():
+            if getattr(joint, "locked_components", ()):
+                component = 0 if getattr(joint, "motion_component", None) == 0 else 3
+                out[name] = self.reactions(name, "joint", "drive")[:, component]
+        return out
+
+    def _mechanism(self):
+        answers = self._stacked_answers()
+        if answers is not None:
+            return answers.mechanism
+        for item in self:
+            if not isinstance(item, Exception):
+                return item.mechanism
+        return None
+
+    def _check_joint(self, joint: str) -> None:
+        mechanism = self._mechanism()
+        if mechanism is not None and joint not in mechanism.joints:
+            raise NotFoundError("joint", joint, tuple(mechanism.joints), mechanism.name)
 
     @property
     def ok(self) -> np.ndarray:
@@ -318,6 +441,10 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     seed = mechanism.cache.warm.get(prepared.signature)
     x_all = np.full((len(cases), prepared.size_x), np.nan)
     batched = np.zeros(len(cases), dtype=bool)
+    # the answers of the batched cases, for the whole-batch readers (.batch_answers)
+    y_all = np.full((len(cases), geometry.basis.shape[1]), np.nan)
+    multipliers_all = np.full((len(cases), len(prepared.bounds)), np.nan)
+    signs_all = np.ones_like(multipliers_all)
 
     def batched_round(group: np.ndarray) -> np.ndarray:
         """Batched Newton from ``seed`` on the cases ``group``: the verified ones kept (their
@@ -350,6 +477,9 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
             )
         x_all[group[verified]] = x[verified]
         batched[group[verified]] = True
+        y_all[group[verified]] = y[verified]
+        multipliers_all[group[verified]] = multipliers[verified]
+        signs_all[group[verified]] = seed.signs
         bar.update(int(verified.sum()))
         return verified
 
@@ -386,7 +516,26 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
             items[i] = _solve_chunk(mechanism, [cases[i]], options, errors, start=i)[0]
             bar.update()
     torsor_maps = {name: prepared.maps.joint_torsor[name] for name in mechanism.joints}
-    return EquilibriumBatch(items, {"x": x_all, "batched": batched, "torsor_maps": torsor_maps})
+    oMi = prepared.configuration.oMi
+
+    def stacked() -> StackedAnswers:
+        return StackedAnswers(
+            mechanism,
+            prepared,
+            y_all,
+            multipliers_all,
+            signs_all,
+            sigmas,
+            batched,
+            np.array([m.rotation for m in oMi])[None],
+            np.array([m.translation for m in oMi])[None],
+            False,
+            cases.load_column(),
+            options["gravity"],
+        )
+
+    arrays = {"x": x_all, "batched": batched, "torsor_maps": torsor_maps, "stacked": stacked}
+    return EquilibriumBatch(items, arrays)
 
 
 def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, errors):
@@ -422,10 +571,49 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
             None if verified else _solve_chunk(mechanism, [cases[k]], options, errors, start=k)[0]
         )
     torsor_maps = {name: prepared.maps.joint_torsor[name] for name in mechanism.joints}
+    arrays = {
+        "x": x_all,
+        "batched": batched,
+        "torsor_maps": torsor_maps,
+        "stacked": lambda: _compiled_answers(mechanism, fast, rows, batched, cases, options),
+    }
     return EquilibriumBatch(
-        items,
-        {"x": x_all, "batched": batched, "torsor_maps": torsor_maps},
-        lambda i: _compiled_item(fast, rows[i - 1], (*column[i], *appended)),
+        items, arrays, lambda i: _compiled_item(fast, rows[i - 1], (*column[i], *appended))
+    )
+
+
+def _compiled_answers(mechanism, fast, rows, batched, cases, options) -> StackedAnswers:
+    """The answers of a compiled batch as arrays (:mod:`.batch_answers`): the kernel's rows of
+    the cases 1... read as its items read them (:meth:`.fast_path.FastTerms.parts`: unknowns,
+    gaps, force rows, body twists); case 0 was solved alone."""
+    prepared = fast.prepared
+    parts = [fast.parts(row) for row in rows]
+
+    def column(name: str) -> np.ndarray:
+        values = np.array([part[name] for part in parts]).reshape(len(rows), -1)
+        out = np.full((len(rows) + 1, values.shape[1]), np.nan)
+        out[1:] = values
+        return out
+
+    oMi = prepared.configuration.oMi
+    given = {name: column(name) for name in ("x", "gaps", "forces", "twists")}
+    given["force_rows"] = given.pop("forces")
+    given["twists"] = given["twists"].reshape(len(rows) + 1, -1, 6)
+    multipliers = column("multipliers")
+    return StackedAnswers(
+        mechanism,
+        prepared,
+        column("y"),
+        multipliers,
+        column("signs"),
+        np.full(len(rows) + 1, np.nan),
+        batched,
+        np.array([m.rotation for m in oMi])[None],
+        np.array([m.translation for m in oMi])[None],
+        False,
+        cases.load_column(),
+        options["gravity"],
+        given,
     )
 
 

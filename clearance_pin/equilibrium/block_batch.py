@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import ClearancePinError
 from .batch import Cases, EquilibriumBatch, name_case
+from .batch_answers import StackedAnswers
 from .batch_kinematics import body_placements
 from .block_verify import RESIDUAL_NAMES, SOLVER_STATUS, flat_notes, verify
 from .blocks import (
@@ -98,6 +99,13 @@ class BlockBatch(EquilibriumBatch):
                 self._build,
             ),
         )
+
+    def _stacked_answers(self) -> StackedAnswers:
+        """The closed-form cases' answers as arrays (:mod:`.batch_answers`), made on first read."""
+        answers = self.__dict__.get("_answers")
+        if answers is None:
+            answers = self.__dict__["_answers"] = cast(Assembler, self._build).stacked(self._closed)
+        return cast(StackedAnswers, answers)
 
     @property
     def energy(self) -> Array:
@@ -356,6 +364,35 @@ class Assembler:
 
     def __getstate__(self) -> dict[str, Any]:
         return {**self.__dict__, "nominal": None}
+
+    def stacked(self, done: Mask) -> StackedAnswers:
+        """The answers of the closed-form cases ``done`` as arrays, for the whole-batch readers:
+        the body placements of every point of a trajectory (:func:`.batch_kinematics.body_placements`)
+        or of the nominal configuration."""
+        nominal = self.nominal
+        if nominal is None:  # unpickled
+            nominal = self.nominal = prepared_geometry(self.mechanism)
+        if self.along:
+            configurations = [nominal.configuration.q if q is None else q for _, q in self.cases]
+            rotations, translations = body_placements(self.mechanism, configurations)
+        else:
+            oMi = nominal.configuration.oMi
+            rotations = np.array([m.rotation for m in oMi])[None]
+            translations = np.array([m.translation for m in oMi])[None]
+        return StackedAnswers(
+            self.mechanism,
+            nominal,
+            self.y,
+            self.closed.multipliers,
+            self.closed.signs,
+            self.terms.sigmas,
+            done,
+            rotations,
+            translations,
+            self.along,
+            self.cases.load_column(),
+            self.options["gravity"],
+        )
 
 
 def _closed_and_verified(

@@ -1,0 +1,191 @@
+r"""Joint reactions of every case of a batch at once (small-displacement model).
+
+The same recovery as :func:`.reactions.joint_reactions` for one answer, on stacked arrays: per
+case, the contact forces of each joint (:func:`.batch_answers.contact_forces`) applied at their
+contact points, and the rigid and drive parts :math:`(\mu, \tau)` from the statics of every moving
+body b (world axes, moments about its origin :math:`o_b`, divided by :math:`L_{ref}`)
+
+.. math::  L_b + \sum_{j:\ \mathrm{child}(j) = b} W_j - \sum_{j:\ \mathrm{parent}(j) = b} W_j = 0
+
+solved by least squares with the item's column scaling: one factorisation for all cases at one
+configuration (the matrix depends on the configuration only), one per case along a trajectory.
+The joint frames are the frames of the items' reactions: the child-side clearance frame at the
+nominal pose of each case (:mod:`.poses`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import SimpleNamespace
+
+import numpy as np
+
+from ..errors import ArgumentError, NotFoundError
+from .batch_answers import StackedAnswers, contact_forces
+from .blocks import Array
+from .load_table import body_wrenches, load_table
+from .reactions import FRAMES, _generators, frames_at
+
+PARTS = ("contact", "rigid", "drive", "held")
+
+
+@dataclass(frozen=True)
+class StackedReactions:
+    """Every joint's reaction parts in every case, wrenches at the world origin, world axes.
+
+    Attributes:
+        names: the joints, in the mechanism's order (J,).
+        parts: part (``"contact"``, ``"rigid"``, ``"drive"``, ``"held"``) -> (N, J, 6)
+            [N, N m] (force, moment about the world origin); NaN rows for the cases not stacked.
+        rotations, translations: world placement of each joint's frame (``frame="joint"``),
+            (K, J, 3, 3) and (K, J, 3) [m], K = 1 or N.
+    """
+
+    names: tuple[str, ...]
+    parts: dict[str, Array]
+    rotations: Array
+    translations: Array
+
+    def reaction(self, joint: str, frame: str = "joint", part: str | None = None) -> Array:
+        """(force, moment) (N, 6) [N, N m] of ``joint`` in ``frame`` (``"joint"``: its frame's
+        axes, moment about its centre; ``"world"``: world axes, moment about the origin), the
+        sum of the parts or the one ``part`` (:class:`.reactions.Reaction`)."""
+        if joint not in self.names:
+            raise NotFoundError("joint", joint, self.names)
+        if frame not in FRAMES:
+            raise ArgumentError("frame", "'joint' or 'world'", frame)
+        if part is not None and part not in PARTS:
+            raise ArgumentError("part", f"None or one of {', '.join(PARTS)}", part)
+        j = self.names.index(joint)
+        chosen = [self.parts[p][:, j] for p in (PARTS if part is None else (part,))]
+        if frame == "joint":  # placement.actInv(Force): (R^T f, R^T (m - t x f)) per part
+            rotation, origin = self.rotations[:, j], self.translations[:, j]
+            local = []
+            for wrench in chosen:
+                force, moment = wrench[:, :3], wrench[:, 3:]
+                local.append(
+                    np.concatenate(
+                        [
+                            np.einsum("nji,nj->ni", rotation, force),
+                            np.einsum("nji,nj->ni", rotation, moment - np.cross(origin, force)),
+                        ],
+                        axis=1,
+                    )
+                )
+            chosen = local
+        total = chosen[0].copy()
+        for wrench in chosen[1:]:
+            total += wrench
+        return total
+
+
+def stacked_reactions(answers: StackedAnswers) -> StackedReactions:
+    """The :class:`StackedReactions` of every stacked case of ``answers`` (module docstring)."""
+    cached = answers.__dict__.get("_reactions")
+    if cached is not None:
+        return cached
+    mechanism = answers.mechanism
+    model = mechanism.model
+    names = tuple(mechanism.joints)
+    count, bodies = len(answers.y), model.njoints
+    rotations, translations = answers.rotations, answers.translations
+    if answers.along:  # a tree: joint k's child-side clearance frame is oM_k C_k
+        by_name = {joint.name: joint for joint in mechanism.tree_joints}
+        tree = [by_name[name] for name in names]  # a trajectory is a tree's: all tree joints
+        ids = np.array([joint.joint_id for joint in tree], dtype=np.intp)
+        turns = np.array([joint.rotation for joint in tree])
+        frame_rotations = rotations[:, ids] @ turns[None]
+        frame_origins = translations[:, ids]
+        ends = [(int(model.parents[k]), k) for k in ids.tolist()]
+    else:
+        frames = frames_at(mechanism, answers.prepared.configuration, tuple(_se3(answers)))
+        frame_rotations = np.array([[frames[name].child.rotation for name in names]])
+        frame_origins = np.array([[frames[name].child.translation for name in names]])
+        ends = [(frames[name].parent_body, frames[name].child_body) for name in names]
+    index = {name: j for j, name in enumerate(names)}
+
+    def placed(local: Array, j: int) -> Array:
+        """Wrenches (P, 6) or (6,) in joint j's frame -> world origin, (P or K, 6)."""
+        local = local.reshape(-1, 6)
+        rotation = frame_rotations[:, j]
+        force = (rotation @ local[:, :3, None])[..., 0]
+        moment = (rotation @ local[:, 3:, None])[..., 0]
+        return np.concatenate([force, moment + np.cross(frame_origins[:, j], force)], axis=-1)
+
+    length = mechanism.length_scale()
+
+    def at_body(wrench: Array, body: int) -> Array:
+        """(F, (M - o_b x F) / L): the wrench about body b's origin, moments over L_ref."""
+        origin = translations[:, body]
+        force = wrench[..., :3]
+        return np.concatenate([force, (wrench[..., 3:] - np.cross(origin, force)) / length], -1)
+
+    # contact part: each contact force at its contact point, in its joint's frame
+    forces = contact_forces(answers)
+    contact = np.zeros((count, len(names), 6))
+    for k, constraint in enumerate(answers.prepared.geometry.contacts):
+        point = np.array(constraint.contact.point)
+        local = np.concatenate([forces[:, k], np.cross(point, forces[:, k])], axis=1)
+        contact[:, index[constraint.joint]] += placed(local, index[constraint.joint])
+
+    # generator columns (rigid directions, drives) in each joint's frame, placed per case
+    columns, owners = [], []
+    for name in names:
+        joint = mechanism.joints[name]
+        for part, local, _ in _generators(joint, SimpleNamespace(child=None), False):
+            for column in local.T:
+                columns.append(placed(column, index[name]))  # (K, 6)
+                owners.append((index[name], part))
+
+    def scatter(wrench: Array, j: int) -> Array:
+        """The wrench of joint j on its child (+) and parent (-) body equations, (..., rows)."""
+        out = np.zeros((*wrench.shape[:-1], 6 * bodies))
+        parent, child = ends[j]
+        out[..., 6 * child : 6 * child + 6] += at_body(wrench, child)
+        out[..., 6 * parent : 6 * parent + 6] -= at_body(wrench, parent)
+        return out[..., 6:]
+
+    table = load_table(mechanism, answers.load_column, answers.gravity)
+    per_case = answers.along and len(rotations) == count
+    sums, moments = body_wrenches(table, rotations, translations, bodies, per_case)
+    loads = np.concatenate([sums[..., :3], moments], axis=-1)  # about the world origin
+    known = np.zeros((count, 6 * bodies))
+    for body in range(1, bodies):
+        known[:, 6 * body : 6 * body + 6] += at_body(loads[:, body], body)
+    known = known[:, 6:]
+    for j in range(len(names)):
+        known += scatter(contact[:, j], j)
+
+    solved = answers.stacked & table.valid
+    solution = np.full((count, len(columns)), np.nan)
+    if columns:
+        matrix = np.stack([scatter(column, j) for column, (j, _) in zip(columns, owners)], -1)
+        sizes = np.linalg.norm(matrix, axis=1)  # (K, C)
+        sizes[sizes == 0.0] = 1.0
+        scaled = matrix / sizes[:, None, :]
+        chosen = np.flatnonzero(solved)
+        if len(matrix) == 1:  # one configuration: one factorisation, every case a right side
+            answer = np.linalg.lstsq(scaled[0], -known[chosen].T, rcond=None)[0]
+            solution[chosen] = answer.T / sizes[0]
+        else:
+            for i in chosen.tolist():
+                solution[i] = np.linalg.lstsq(scaled[i], -known[i], rcond=None)[0] / sizes[i]
+    else:
+        solution = np.zeros((count, 0))
+    parts = {part: np.zeros((count, len(names), 6)) for part in PARTS}
+    parts["contact"] = contact
+    for k, (j, part) in enumerate(owners):
+        parts[part][:, j] += solution[:, k, None] * columns[k]
+    for part in PARTS:
+        parts[part][~solved] = np.nan
+    reactions = StackedReactions(names, parts, frame_rotations, frame_origins)
+    answers.__dict__["_reactions"] = reactions
+    return reactions
+
+
+def _se3(answers: StackedAnswers):
+    """The body placements of the one configuration as pin.SE3 (its Configuration's own)."""
+    return answers.prepared.configuration.oMi
+
+
+__all__ = ["PARTS", "StackedReactions", "stacked_reactions"]
