@@ -16,6 +16,7 @@ Build once, solve many (run from the repository's root; tests/test_docs_examples
 from typing import TYPE_CHECKING
 
 from .equilibrium.batch import EquilibriumBatch
+from .equilibrium.method import Method
 from .equilibrium.result import Contact, Equilibrium
 from .errors import (
     ArgumentError,
@@ -48,6 +49,7 @@ __all__ = [
     "Equilibrium",
     "EquilibriumBatch",
     "Contact",
+    "Method",
     "CheckReport",
     "PointForce",
     "Torque",

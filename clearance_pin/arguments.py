@@ -282,7 +282,10 @@ def check_solve_many(
         options.get("gravity"),
         options.get("tol", 1e-12),
         options.get("backend", "auto"),
+        options.get("accuracy", 1e-9),
+        options.get("warm_start", True),
     )
+    check_outputs(options.get("outputs"))
     errors = options.get("errors", "raise")
     if not (isinstance(errors, str) and errors in ("raise", "return")):
         raise ArgumentError("errors", "'raise' or 'return'", errors)

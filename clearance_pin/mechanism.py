@@ -366,8 +366,9 @@ class Mechanism:
             gravity: True / a :class:`Gravity` to add gravity, False to switch it off,
                 None for the model's setting.
             tol: optimiser tolerance (dimensionless, on clearance-scaled unknowns).
-            warm_start: try the active-set Newton step from the previous solution of the same
-                structure first (False: always start from the nominal position).
+            warm_start: the compiled kernel (when installed) starts from the recent answers of
+                the same structure (False: from the centred position; the other engines always
+                start from the nominal position).
             backend: ``"auto"`` (Clarabel when installed, else IPOPT), ``"clarabel"`` or
                 ``"ipopt"`` for the small-displacement cone programme; the answer is polished and
                 verified the same way whichever finds it. The exact model is solved by Newton's
@@ -451,15 +452,15 @@ class Mechanism:
     def resolver(self, loads=None, q=None, gravity=None, outputs=None, **options):
         """A :class:`~clearance_pin.equilibrium.resolver.Resolver`: ``loads`` (default: the
         model's) built once, re-solved with new force and torque vectors,
-        ``resolver.solve(values)`` (options: tol, backend, warm_start, as :meth:`solve`)."""
+        ``resolver.solve(values)`` (options: every option of :meth:`solve`)."""
         from .equilibrium.resolver import Resolver
 
         return Resolver(self, loads, q=q, gravity=gravity, outputs=outputs, **options)
 
     def solve_many(self, loads=None, configurations=None, **options):
         """Many equilibria, warm-started in sequence; see
-        :func:`clearance_pin.equilibrium.batch.solve_many` (options: exact, gravity, tol, backend,
-        executor, chunks, errors, progress)."""
+        :func:`clearance_pin.equilibrium.batch.solve_many` (options: every option of
+        :meth:`solve` but ``q``, and executor, chunks, errors, progress)."""
         from .equilibrium.batch import solve_many
 
         check_solve_many(self, loads, configurations, options)

@@ -42,8 +42,7 @@ import pinocchio as pin
 import pytest
 
 import clearance_pin as cp
-from clearance_pin import PointForce
-from clearance_pin.equilibrium.block_verify import SOLVER_STATUS
+from clearance_pin import Method, PointForce
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 TARGET = 1e-12  # of the play (issue 12)
@@ -224,12 +223,12 @@ def check(errors: np.ndarray, phi: np.ndarray, what: str) -> None:
 
 
 def batch_torsors(batch, names) -> np.ndarray:
-    assert set(batch.statuses) == {SOLVER_STATUS}  # the closed-form path
+    assert set(batch.methods) == {Method.CLOSED_FORM}
     return np.stack([batch.torsors(name) for name in names], axis=1)
 
 
 def solve_torsors(answer: cp.Equilibrium, names) -> np.ndarray:
-    assert answer.solver_status == SOLVER_STATUS and answer.ok
+    assert answer.method is Method.CLOSED_FORM and answer.ok
     return np.array([answer.torsor(name) for name in names])
 
 

@@ -32,9 +32,9 @@ from mechanism_strategies import (
 from oracle import Oracle, bounded_loads
 
 import clearance_pin as cp
-from clearance_pin import Gravity, PointForce, Torque
+from clearance_pin import Gravity, Method, PointForce, Torque
 from clearance_pin.equilibrium.batch_kinematics import _pinocchio_placements, body_placements
-from clearance_pin.equilibrium.block_verify import SOLVER_STATUS, centred_problem, verify
+from clearance_pin.equilibrium.block_verify import centred_problem, verify
 from clearance_pin.equilibrium.blocks import block_structure, closed_forms, reduced_unknowns
 from clearance_pin.equilibrium.load_table import body_wrenches, load_table
 from clearance_pin.equilibrium.prepared import prepared_geometry
@@ -92,7 +92,7 @@ def unknowns_size(mechanism, answer) -> float:
 def assert_same_answer(mechanism, closed, general, play: float = PLAY) -> None:
     """The closed form's answer is the general path's: torsors to ``play``, forces to 1e-9 of
     the largest, the same contacts in touch, energy, and as many free (flat) motions."""
-    assert closed.solver_status == SOLVER_STATUS and general.solver_status != SOLVER_STATUS
+    assert closed.method is Method.CLOSED_FORM and general.method is not Method.CLOSED_FORM
     assert closed.ok and general.ok
     assert play_difference(mechanism, closed, general) <= play
     largest = max((c.force_magnitude for c in general.contacts), default=0.0)
@@ -132,7 +132,7 @@ def test_one_journal_matches_the_hand_computation():
     v, w = (e_plus[0] + e_minus[0]) / 2, (e_plus[1] + e_minus[1]) / 2
     gamma, beta = (e_plus[0] - e_minus[0]) / length, (e_minus[1] - e_plus[1]) / length
     answer = cp.loads(text).solve(loads=loads)
-    assert answer.solver_status == SOLVER_STATUS and answer.ok
+    assert answer.method is Method.CLOSED_FORM and answer.ok
     expected = np.array([u, v, w, 0.0, beta, gamma])
     np.testing.assert_allclose(answer.torsor("bore"), expected, rtol=0, atol=1e-15 * c / length)
     forces = {contact.point: contact.force for contact in answer.contacts}
@@ -155,7 +155,7 @@ def test_one_ball_and_one_pin_match_the_hand_computation():
     force = np.array([1.0, -2.0, 5.0])
     loads = [PointForce("part", force, [0.0, 0.0, 0.0])]
     ball = cp.loads(text).solve(loads=loads)
-    assert ball.solver_status == SOLVER_STATUS
+    assert ball.method is Method.CLOSED_FORM
     np.testing.assert_allclose(
         ball.torsor("ball"), [*(c * force / np.linalg.norm(force)), 0, 0, 0], atol=1e-15 * c
     )
@@ -164,7 +164,7 @@ def test_one_ball_and_one_pin_match_the_hand_computation():
         assert_same_answer(ball.mechanism, ball, general_solve(text, loads=loads, backend=backend))
     pendulum = cp.load(MODELS / "double_pendulum.urdf")
     answer = pendulum.solve()
-    assert answer.solver_status == SOLVER_STATUS
+    assert answer.method is Method.CLOSED_FORM
     elbow = pendulum.joint("elbow")
     frame = answer.configuration.oMi[elbow.joint_id].rotation @ elbow.rotation
     carried = frame.T @ np.array([0.0, -10.0, 0.0])  # the tip force, in the elbow's frame
@@ -211,7 +211,7 @@ def test_the_arm_nominal_answer_leaves_unloaded_axial_plays_at_zero():
     the free motions, as the general path does."""
     arm = cp.load(MODELS / "arm_6r.urdf")
     answer = arm.solve()
-    assert answer.solver_status == SOLVER_STATUS
+    assert answer.method is Method.CLOSED_FORM
     for joint in ("shoulder_lift", "elbow", "wrist_1", "wrist_3"):
         assert answer.torsor(joint)[0] == 0.0
     assert len(answer.free_motions) == 4
@@ -266,7 +266,7 @@ def compare_random(spec: MechanismSpec, accepted: list) -> None:
             closed = mechanism.solve(loads=loads)
         except cp.ClearancePinError:
             return
-        if closed.solver_status != SOLVER_STATUS:
+        if closed.method is not Method.CLOSED_FORM:
             return
         accepted.append(spec)
         for backend in GENERAL:
@@ -310,12 +310,12 @@ def test_an_unloaded_end_of_a_loaded_journal_goes_to_the_general_path():
     cases = closed_forms(structure, problem.gradient[None], np.array([problem.objective_scale]))
     assert not cases.decided[0]
     single = mechanism.solve(loads=at_end)
-    assert single.solver_status != SOLVER_STATUS and single.ok
+    assert single.method is not Method.CLOSED_FORM and single.ok
     assert play_difference(mechanism, single, general_solve(text, loads=at_end)) <= PLAY
     off_end = [PointForce("shaft", [0.0, 8.0, -4.0], [0.05, 0.0, 0.0])]
     batch = mechanism.solve_many([off_end, at_end, off_end])
-    assert batch.statuses[0] == batch.statuses[2] == SOLVER_STATUS
-    assert batch.statuses[1] != SOLVER_STATUS and batch.ok.all()
+    assert batch.methods[0] == batch.methods[2] == Method.CLOSED_FORM
+    assert batch.methods[1] != Method.CLOSED_FORM and batch.ok.all()
     assert play_difference(mechanism, batch[1], single) <= PLAY
 
 
@@ -336,7 +336,7 @@ def test_a_prismatic_block_keeps_the_general_path():
 """
     mechanism = cp.loads(text)
     assert block_structure(prepared_geometry(mechanism).geometry, False) is None
-    assert mechanism.solve().solver_status != SOLVER_STATUS
+    assert mechanism.solve().method is not Method.CLOSED_FORM
 
 
 def test_verification_rejects_answers_that_are_not_optimal():
@@ -386,7 +386,7 @@ def test_a_trajectory_equals_single_solves_at_every_point():
     phases = np.linspace(0.0, 2.0 * np.pi, 120)
     trajectory = [arm.q_nominal + 0.8 * np.sin(p + np.arange(arm.model.nq)) for p in phases]
     batch = arm.solve_many(configurations=trajectory)
-    assert batch.ok.all() and set(batch.statuses) == {SOLVER_STATUS}
+    assert batch.ok.all() and set(batch.methods) == {Method.CLOSED_FORM}
     assert all(item is None for item in batch._items)  # nothing assembled yet
     torsors = {joint: batch.torsors(joint) for joint in arm.joints}
     energies = batch.energy
@@ -432,7 +432,7 @@ def test_load_cases_at_one_configuration_equal_single_solves():
         arm.solve_many(cases)
     ok = batch.ok
     assert not ok[17] and ok.sum() == 299
-    assert batch.statuses.count(SOLVER_STATUS) == 299
+    assert batch.methods.count(Method.CLOSED_FORM) == 299
     general = cp.load(MODELS / "arm_6r.urdf")
     for k in range(0, 300, 13):
         if k == 17:
@@ -465,7 +465,7 @@ def test_load_cases_across_chunks_equal_single_solves():
             else [Torque("upper_arm", torque.torque), force]
         )
     batch = arm.solve_many(mixed)
-    assert batch.statuses.count(SOLVER_STATUS) == count
+    assert batch.methods.count(Method.CLOSED_FORM) == count
     general = cp.load(MODELS / "arm_6r.urdf")
     for k in (0, 1, 2, 3, CHUNK - 1, CHUNK, CHUNK + 1, 2 * CHUNK - 1, 2 * CHUNK, count - 1):
         assert_same_answer(arm, batch[k], general.solve(loads=mixed[k], backend="clarabel"))

@@ -15,6 +15,7 @@ from conftest import CASES, MODELS, build_case, scale_clearances
 from oracle import Oracle, bounded_loads
 
 import clearance_pin as cp
+from clearance_pin import Method
 
 SCALES = (1.0, 0.1, 0.01)
 
@@ -188,12 +189,12 @@ def test_newton_from_the_linear_solution_equals_ipopt(case_id, monkeypatch):
         with monkeypatch.context() as patch:
             patch.setattr(exact_module, "_linear_start", no_start)
             ipopt = ipopt_route.solve(loads, exact=True)
-        assert ipopt.solver_status.startswith("ipopt")
+        assert ipopt.method is Method.EXACT_IPOPT
         assert newton.ok and newton.residuals["statics"] <= 1e-12
-        routes.append(newton.solver_status)
+        routes.append(newton.method)
         for name, torsor in ipopt.torsors.items():
             assert np.abs(newton.torsors[name][:3] - torsor[:3]).max() <= 1e-10 * play
-    assert routes.count("Newton from the linear solution") >= 9, routes
+    assert routes.count(Method.EXACT_NEWTON) >= 9, routes
 
 
 def test_a_valley_of_exact_equilibria_gives_one_answer_on_every_backend():

@@ -8,6 +8,7 @@ displacements, those that close every loop and keep every contact point inside i
 (:mod:`.exact`). Active constraints are the contacts; their multipliers are the contact forces.
 """
 
+from .method import Method
 from .result import Contact, Equilibrium
 
-__all__ = ["Contact", "Equilibrium"]
+__all__ = ["Contact", "Equilibrium", "Method"]

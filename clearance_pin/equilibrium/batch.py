@@ -29,6 +29,8 @@ from .cone_solver import acceptance
 from .fast_path import WARM_ROUNDS, fast_terms
 from .kkt import UNLOADED
 from .linear_answer import assemble_linear
+from .method import Method
+from .outputs import resolve_outputs
 from .prepared import prepared_geometry
 from .reactions import FRAMES
 from .reduction import loaded_problem
@@ -245,6 +247,12 @@ class EquilibriumBatch(Sequence):
         """Solver status per case (the error's class name for errors)."""
         return [type(r).__name__ if isinstance(r, Exception) else r.solver_status for r in self]
 
+    @property
+    def methods(self) -> list[Method | str]:
+        """The engine that answered each case (:class:`~.method.Method`; the error's class name
+        for errors)."""
+        return [type(r).__name__ if isinstance(r, Exception) else r.method for r in self]
+
 
 class Cases(Sequence):
     """The cases of :func:`solve_many` as two columns, read as (loads, configuration) pairs.
@@ -335,6 +343,9 @@ def solve_many(
     gravity=None,
     tol: float = 1e-12,
     backend: str = "auto",
+    accuracy: float = 1e-9,
+    warm_start: bool = True,
+    outputs=None,
     executor: Executor | None = None,
     chunks: int | None = None,
     errors: str = "raise",
@@ -349,7 +360,10 @@ def solve_many(
         configurations: sequence of nominal configurations q (nq,) (a trajectory of the driven
             joints; passive joints are closed for each), or None for the nominal one. When both
             are given they are paired case by case.
-        exact, gravity, tol, backend: as in :meth:`Mechanism.solve`.
+        exact, gravity, tol, backend, accuracy, warm_start, outputs: as in
+            :meth:`Mechanism.solve` (every option of a single solve works here;
+            ``warm_start=False`` solves each case from the nominal position, not warm-started
+            from its neighbour).
         executor: run chunks of cases as tasks of this executor (default: in this process).
         chunks: number of chunks with an executor (default: 4 per worker, at least 1 case each).
         errors: ``"raise"`` (the first error stops, a note on it names its case) or ``"return"``
@@ -364,7 +378,17 @@ def solve_many(
     if errors not in ("raise", "return"):
         raise ClearancePinError(f"errors must be 'raise' or 'return', got {errors!r}")
     cases = _cases(mechanism, loads, configurations)
-    options = {"exact": exact, "gravity": gravity, "tol": tol, "backend": backend}
+    options = {
+        "exact": exact,
+        "gravity": gravity,
+        "tol": tol,
+        "backend": backend,
+        "accuracy": accuracy,
+        "warm_start": warm_start,
+        "outputs": outputs,
+    }
+    if outputs is not None:  # an unknown frame refused now, not in every case
+        resolve_outputs(mechanism, (), outputs)
     show = progress if progress is not None else (None if len(cases) > 100 else False)
     bar = Progress(len(cases), "solve_many", show)
     if executor is None and not exact and backend == "auto":
@@ -375,7 +399,7 @@ def solve_many(
             bar.close()
             return blocks
     if executor is None:
-        if configurations is None and not exact and len(cases) >= BATCH_MINIMUM:
+        if configurations is None and not exact and warm_start and len(cases) >= BATCH_MINIMUM:
             batch = _solve_loads_batched(mechanism, cases, options, errors, bar)
             bar.close()
             return batch
@@ -414,7 +438,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
     prepared = prepared_geometry(mechanism)
     geometry = prepared.geometry
-    fast = fast_terms(prepared, len(cases) - 1)
+    fast = fast_terms(prepared)
     if fast is not None:
         compiled = _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, errors)
         if compiled is not None:
@@ -474,6 +498,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
                 seed.signs,
                 table[k],
                 mechanism.resolve_loads(cases[i][0], options["gravity"]),
+                options["outputs"],
             )
         x_all[group[verified]] = x[verified]
         batched[group[verified]] = True
@@ -578,7 +603,9 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
         "stacked": lambda: _compiled_answers(mechanism, fast, rows, batched, cases, options),
     }
     return EquilibriumBatch(
-        items, arrays, lambda i: _compiled_item(fast, rows[i - 1], (*column[i], *appended))
+        items,
+        arrays,
+        lambda i: _compiled_item(fast, rows[i - 1], (*column[i], *appended), options["outputs"]),
     )
 
 
@@ -660,13 +687,14 @@ def _helper_threads() -> ThreadPoolExecutor | None:
     return _helpers[0]
 
 
-def _compiled_item(fast, row, loads):
+def _compiled_item(fast, row, loads, outputs=None):
     """The Equilibrium of one case of a compiled batch, its ``row`` of the kernel's answer (its
-    flat directions, if any, found and described now)."""
+    flat directions, if any, found and described now); ``outputs`` as :meth:`Mechanism.solve`'s."""
     answer = fast.parts(row)
     flat, _ = fast.prepared.flat_directions(answer["y"], answer["multipliers"], answer["signs"])
-    outcome = ("optimal", "batched Newton (compiled)", 0, True)
-    return fast.equilibrium(row, flat, loads, outcome, (0.0, 0.0), (), answer)
+    outcome = ("optimal", Method.COMPILED, "batched Newton (compiled)", 0, True)
+    points = () if outputs is None else resolve_outputs(fast.prepared.mechanism, loads, outputs)
+    return fast.equilibrium(row, flat, loads, outcome, (0.0, 0.0), points, answer)
 
 
 def _unique(stack, seed, y, multipliers, verified):
@@ -687,9 +715,9 @@ def _unique(stack, seed, y, multipliers, verified):
     return verified & (singular[:, -1] > 1e-9 * singular[:, 0])
 
 
-def _lazy_item(prepared, load, y, multipliers, signs, table, loads):
+def _lazy_item(prepared, load, y, multipliers, signs, table, loads, outputs=None):
     """The Equilibrium of one batched case, assembled when first read (``loads``: the case's
-    resolved loads, kept for the joint reactions)."""
+    resolved loads, kept for the joint reactions; ``outputs`` as :meth:`Mechanism.solve`'s)."""
 
     def build():
         return assemble_linear(
@@ -699,6 +727,7 @@ def _lazy_item(prepared, load, y, multipliers, signs, table, loads):
             multipliers,
             signs,
             "optimal",
+            Method.NEWTON,
             "batched Newton",
             0,
             True,
@@ -706,6 +735,8 @@ def _lazy_item(prepared, load, y, multipliers, signs, table, loads):
             0.0,
             dict(zip(RESIDUAL_NAMES, map(float, table))),
             loads,
+            (),
+            () if outputs is None else resolve_outputs(prepared.mechanism, loads, outputs),
         )
 
     return build

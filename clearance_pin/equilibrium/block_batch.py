@@ -37,6 +37,8 @@ from .blocks import (
 from .cache import LeastRecentlyUsed
 from .linear_answer import assemble_linear
 from .load_table import LoadTable, body_wrenches, load_table
+from .method import Method
+from .outputs import resolve_outputs
 from .prepared import PreparedGeometry, prepared_geometry
 from .reduction import loaded_problem
 from .tree_point import TreePoint
@@ -123,6 +125,17 @@ class BlockBatch(EquilibriumBatch):
             SOLVER_STATUS
             if self._closed[i]
             else (type(r).__name__ if isinstance(r := self[i], Exception) else r.solver_status)
+            for i in range(len(self))
+        ]
+
+    @property
+    def methods(self) -> list[Method | str]:
+        """The engine that answered each case (:class:`~.method.Method`; the error's class name
+        for errors)."""
+        return [
+            Method.CLOSED_FORM
+            if self._closed[i]
+            else (type(r).__name__ if isinstance(r := self[i], Exception) else r.method)
             for i in range(len(self))
         ]
 
@@ -455,6 +468,8 @@ def _item(
         float(terms.shares[i]),
     )
     gravity = options["gravity"]
+    resolved = mechanism.resolve_loads(case_loads, False if gravity is False else gravity)
+    outputs = options.get("outputs")
     return assemble_linear(
         prepared,
         problem,
@@ -462,14 +477,16 @@ def _item(
         closed.multipliers[i],
         closed.signs[i],
         "optimal",
+        Method.CLOSED_FORM,
         SOLVER_STATUS,
         0,
         True,
         0.0,
         0.0,
         dict(zip(RESIDUAL_NAMES, map(float, table[i]))),
-        mechanism.resolve_loads(case_loads, False if gravity is False else gravity),
+        resolved,
         flat_notes(prepared, structure, closed.unloaded[i]),
+        () if outputs is None else resolve_outputs(mechanism, resolved, outputs),
     )
 
 

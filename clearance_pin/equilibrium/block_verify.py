@@ -32,6 +32,7 @@ from .kkt import UNLOADED, StackedContacts
 from .lazy import LazySequence
 from .linear_answer import assemble_linear
 from .load_table import body_terms, centred_wrenches
+from .method import Method
 from .reduction import ReducedProblem, describe_motion
 from .residuals import DUAL_TOLERANCE, FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
 from .tree_trajectory import centre_map, tree_maps
@@ -261,6 +262,7 @@ def closed_form_answer(
         closed.multipliers[0],
         closed.signs[0],
         "optimal",
+        Method.CLOSED_FORM,
         SOLVER_STATUS,
         0,
         True,

@@ -79,7 +79,6 @@ class SolveCache:
             configuration), or None before the first solve.
         geometry_terms: id of a reduced geometry -> (the geometry, its load-independent terms).
         warm: structure signature -> the last verified cone solution (warm starts).
-        warm_bets: structure signature -> whether warm starts pay (:class:`.cone_solver.WarmBet`).
         projection_hints: structure signature -> active sets that needed the projected Newton.
         exact_problems: key -> built :class:`.exact.ExactProblem` (at most
             :data:`EXACT_PROBLEMS_KEPT`, least recently used dropped first).
@@ -97,7 +96,6 @@ class SolveCache:
         self.tree_geometry: Any = None
         self.geometry_terms: dict[int, tuple[Any, Any]] = {}
         self.warm: dict[tuple, Any] = {}
-        self.warm_bets: dict[tuple, Any] = {}
         self.projection_hints: dict[tuple, set[bytes]] = {}
         self.exact_problems: LeastRecentlyUsed[tuple, Any] = LeastRecentlyUsed(EXACT_PROBLEMS_KEPT)
         self.backends: LeastRecentlyUsed[tuple, Any] = LeastRecentlyUsed(BACKENDS_KEPT)

@@ -7,13 +7,17 @@ Problem (see :mod:`.reduction`), dimensionless:
 
 (:math:`o_j`: a misaligned housing's nominal eccentricity over its play, usually 0).
 
-Paths, tried in this order:
+Two steps:
 
-1. *warm*: a previous solution of the same structure gives the contact set and multipliers; the
-   active-set Newton step of :mod:`.kkt` solves the new KKT system (no optimiser call);
-2. *backend*: Clarabel (interior point for cones, when installed: ``pip install clearance_pin[fast]``)
+1. *backend*: Clarabel (interior point for cones, when installed: ``pip install clearance_pin[fast]``)
    or IPOPT through CasADi (always available), from the nominal position;
-3. *polish*: the same Newton step from the backend's answer, to machine precision.
+2. *polish*: the active-set Newton step of :mod:`.kkt` from the backend's answer, to machine
+   precision.
+
+(A NumPy Newton step from the previous answer's contact set was tried first until issue 22: on
+the paper cases and the bundled models, 200 re-solves each interleaved in one process, it took
+0.94 to 1.05 times the cold backend's time, so it was dropped; the compiled kernel is the warm
+path, :mod:`.fast_path`.)
 
 Every answer is verified (multipliers >= 0, contacts feasible, KKT residual at round-off) before it
 is accepted; an unverified backend answer is returned with its measured residuals, and the caller
@@ -32,15 +36,12 @@ import numpy as np
 from ..errors import ArgumentError
 from . import ipopt
 from .kkt import ACCEPT_KKT, ACTIVE_GAP, active_set_solve, residuals
+from .method import Method, backend_method
 from .reduction import ReducedProblem
 
 BACKENDS = ("auto", "clarabel", "ipopt")
 NEARLY_TOUCHING = 1e-3
-# a warm start is a cheap bet: a couple of Newton rounds from the previous contact set, then the
-# backend (on long chains a persistent warm search costs more than a cold solve)
-WARM_ROUNDS = 2
 WARM_MAX_SIZE = 48  # dense Newton steps cost O(size^3): larger problems go to the sparse backend
-WARM_ITERATIONS = 6
 KEPT_SOLVERS = 8  # Clarabel solvers kept per backend, one per geometry (configuration)
 
 
@@ -52,8 +53,8 @@ class ConeSolution:
         y: reduced unknowns, (r,).
         multipliers: lambda_j >= 0 per contact (squared-norm form, scaled by the objective scale).
         signs: +1/-1 for the side of a slab contact in touch (1 for balls and discs).
-        status: the path and the backend's status (``"warm Newton"``, ``"ipopt: Solve_Succeeded"``).
-        iterations: backend iterations (0 for the warm path).
+        status: the backend's own status (``"ipopt: Solve_Succeeded"``).
+        iterations: backend iterations (0 for a Newton start).
         polished: the Newton step was accepted (the answer is verified at round-off).
         residuals: stationarity, feasibility, complementarity, dual_infeasibility.
         solve_time: wall time [s] of this solve.
@@ -69,6 +70,7 @@ class ConeSolution:
     residuals: dict = field(default_factory=dict)
     solve_time: float = 0.0
     setup_time: float = 0.0
+    method: Method = Method.CLARABEL
 
     @property
     def kkt_residual(self) -> float:
@@ -269,69 +271,17 @@ def backend_for(
     return built, True
 
 
-class WarmBet:
-    """Whether a warm start is worth trying for one structure, from the times it has cost.
-
-    A warm start is a bet: the Newton step from the previous contact set is cheap when the loads
-    are close and that set holds, and wasted (on top of the cold solve) when it does not; on
-    larger problems a converging warm Newton can still cost more than the cold solve (6R arm:
-    Clarabel plus a one-step polish). The bet keeps the mean solve time of warm attempts and of
-    cold solves (exponential averages over about 4 solves); after 4 of each it takes the cheaper
-    route, and tries the other one every 8 solves to follow changes.
-    """
-
-    PROBATION = 4
-    RETRY_EVERY = 8
-    WEIGHT = 0.25  # of the newest time in the running mean
-
-    def __init__(self):
-        self.count = {True: 0, False: 0}
-        self.mean = {True: 0.0, False: 0.0}
-        self.solves = 0
-
-    def worth_it(self) -> bool:
-        """Try the warm start on this solve?"""
-        self.solves += 1
-        if self.count[True] < self.PROBATION:
-            return True
-        if self.count[False] < self.PROBATION:
-            return False
-        cheaper = self.mean[True] <= self.mean[False]
-        return cheaper != (self.solves % self.RETRY_EVERY == 0)
-
-    def record(self, warm: bool, seconds: float) -> None:
-        """Count one solve: whether it tried the warm start, and its time [s]."""
-        count = self.count[warm] = self.count[warm] + 1
-        weight = max(self.WEIGHT, 1.0 / count)
-        self.mean[warm] += weight * (seconds - self.mean[warm])
-
-
 def acceptance(conditioning: float) -> float:
     """KKT residual accepted: round-off grows as 1 / conditioning (a ConditioningWarning says so)."""
     return max(ACCEPT_KKT, 1e-16 / max(conditioning, 1e-300))
 
 
-def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = None) -> ConeSolution:
-    """Solve ``problem``: warm Newton if ``warm`` verifies, else the backend then the polish."""
+def solve_cone(problem: ReducedProblem, backend) -> ConeSolution:
+    """Solve ``problem`` by the backend from the nominal position, then the active-set Newton
+    polish (the answer verified at round-off, or returned unpolished with its residuals)."""
     started = time.perf_counter()
     stack = problem.stack
     accept = acceptance(problem.conditioning)
-    if warm is not None and warm.y.shape == (problem.size,) and problem.size <= WARM_MAX_SIZE:
-        verified = active_set_solve(
-            stack,
-            problem.objective,
-            warm.y,
-            warm.multipliers,
-            warm.signs,
-            accept=accept,
-            rounds=WARM_ROUNDS,
-            iterations=WARM_ITERATIONS,
-        )
-        if verified is not None:
-            y, lam, signs, measured = verified
-            return ConeSolution(
-                y, lam, signs, "warm Newton", 0, True, measured, time.perf_counter() - started
-            )
     y, lam, status, iterations = backend.run(problem)
     setup_time = getattr(backend, "setup_time", 0.0)
     signs = stack.sides(y)
@@ -354,6 +304,7 @@ def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = Non
             measured,
             time.perf_counter() - started,
             setup_time,
+            backend_method(backend.name),
         )
     lam = np.where(phi > -ACTIVE_GAP, lam, 0.0)
     measured = residuals(stack, problem.objective, y, lam, signs)
@@ -367,4 +318,5 @@ def solve_cone(problem: ReducedProblem, backend, warm: ConeSolution | None = Non
         measured,
         time.perf_counter() - started,
         setup_time,
+        backend_method(backend.name),
     )

@@ -32,6 +32,7 @@ from ..numerics import null_space
 from . import ipopt
 from .contact_split import least_norm_split
 from .kkt import ACCEPT_KKT
+from .method import Method
 from .outputs import output_displacements, resolve_outputs
 from .prepared import linear_setup, statics_weights
 from .reactions import frames_at
@@ -315,10 +316,12 @@ def solve_exact_model(
     lam0 = np.zeros(exact.lower.size)
     lam0[: start.size] = start
     polished = None if from_nominal else polish_exact(exact, z0, lam0, params, at_upper, at_lower)
+    method = Method.EXACT_NEWTON
     if polished is not None:
         z, lam, parts = polished
         stats = {"return_status": "Newton from the linear solution", "iter_count": 0}
     else:
+        method = Method.EXACT_IPOPT
         result, stats = ipopt.run(exact.solver, x0=z0, p=params, lbg=exact.lower, ubg=exact.upper)
         z = np.asarray(result["x"], dtype=float).ravel()
         lam = np.asarray(result["lam_g"], dtype=float).ravel()
@@ -348,6 +351,7 @@ def solve_exact_model(
             )
     equilibrium = replace(
         equilibrium,
+        method=method,
         polished=polished is not None,
         build_time=exact.build_time if built_now else 0.0,
         solve_time=time.perf_counter() - solve_started,
@@ -755,6 +759,9 @@ def _assemble(
         contacts=tuple(contacts),
         energy=energy,
         status="optimal",
+        method=Method.EXACT_IPOPT
+        if "ipopt" in str(stats["return_status"])
+        else Method.EXACT_NEWTON,
         solver_status=stats["return_status"],
         iterations=int(stats.get("iter_count", 0)),
         residuals=Residuals.of(residuals),

@@ -7,20 +7,26 @@ objective, runs the verified active-set Newton step from the previous solution (
 backend's answer for a cold solve) and computes the answer's arrays; Python builds the answer.
 Whatever the kernel does not verify goes the NumPy way (:mod:`.solve`), which handles every case.
 
-Loading the kernel costs about a second (numba's import and its cache; the first time on a
-machine, compiling: about a minute on a 2-core machine), and it saves about 0.3 ms per re-solve, so it
-loads only where it pays: after :data:`COMPILE_AFTER` re-solves in one process (a planner), on a
-background thread while the solves go on the NumPy way, or when asked (:func:`load_kernel`, at a
-planner's start-up); never at import, on a first solve or in a script of a few hundred solves.
-``CLEARANCE_PIN_COMPILED=0`` switches it off, ``=1`` loads it on the first re-solve.
+Whether the kernel answers is an installation fact, decided once per process and never from
+counters, clocks or threads (issue 22): it is used when numba has it compiled on this machine
+(``clearance-pin compile``, run by the README's set-up, leaves a record of numba's cache files:
+:func:`kernel_installed`), when ``CLEARANCE_PIN_COMPILED=1`` (loaded, compiling if need be, at the
+first re-solve) or after :func:`load_kernel`. It then loads at the first re-solve (about half a
+second from numba's cache), never at import or on a first solve. ``CLEARANCE_PIN_COMPILED=0``
+switches it off. Without it every solve goes the NumPy way, with the same answers.
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.metadata
+import json
 import os
+import sys
 import threading
 import time
 import warnings
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -32,6 +38,7 @@ from .frozen import FieldTemplate
 from .kkt import ACTIVE_GAP, POLISH_TOL, PROXIMAL, UNLOADED
 from .lazy import LazySequence
 from .linear_answer import linear_equilibrium
+from .method import Method, backend_method
 from .prepared import PreparedGeometry
 from .reduction import ROUND_OFF_WORK, UNBOUNDED_FRACTION, loaded_problem
 from .residuals import Residuals
@@ -50,12 +57,8 @@ ROUNDS, WARM_ROUNDS, CENTRE_ROUNDS_PER_CONTACT, ITERATIONS = 10, 3, 8, 12
 POOL = 64  # recent answers the kernel keeps per geometry, the starts of warm solves
 LOAD_MAPS_KEPT = 64  # sets of loaded points kept per configuration
 
-COMPILE_AFTER = 2000  # re-solves of a process after which the kernel's load (about 1 s) pays
-
 _lock = threading.Lock()
-_start_lock = threading.Lock()
-_loaded: dict[str, object] = {}  # "kernel": the module, or None when unavailable
-_resolves = [0]  # re-solves of this process so far (a list: updated in place, no global)
+_loaded: dict[str, object] = {}  # "kernel": the module; "failed": unavailable; "installed": bool
 
 
 def load_kernel() -> float:
@@ -91,6 +94,7 @@ def load_kernel() -> float:
                 return 0.0
             _loaded["kernel"] = kernel
             _loaded["seconds"] = time.perf_counter() - started
+            _write_record(kernel)
     if "failed" in _loaded:
         return 0.0
     return float(_loaded["seconds"])  # type: ignore[arg-type]
@@ -104,25 +108,14 @@ def kernel_load_time() -> float | None:
 
 
 def compiled_kernel(engage: int = 0):
-    """The kernel module (:mod:`.kernel`) when loaded; with ``engage`` (the re-solves a call
-    stands for: 1, or a batch's cases), its load starts once the process has re-solved
-    :data:`COMPILE_AFTER` times, on a background thread (:func:`_load_in_background`: the
-    solves go the NumPy way meanwhile, a planner's loop never waits for a compilation);
-    ``CLEARANCE_PIN_COMPILED=1``: loaded at once, on the first re-solve. None otherwise, when
-    numba is missing or ``CLEARANCE_PIN_COMPILED=0``."""
-    setting = os.environ.get("CLEARANCE_PIN_COMPILED", "auto")
-    if setting == "0":
+    """The kernel module (:mod:`.kernel`) when loaded; with ``engage`` (a re-solve or a batch
+    asks for it), loaded now when :func:`kernel_installed`. None otherwise: numba missing, the
+    kernel not compiled on this machine, failed to load, or ``CLEARANCE_PIN_COMPILED=0``."""
+    if os.environ.get("CLEARANCE_PIN_COMPILED") == "0":
         return None
     module = _loaded.get("kernel")
-    if module is not None or not engage:
+    if module is not None or not engage or not kernel_installed():
         return module
-    if "failed" in _loaded:
-        return None
-    _resolves[0] += engage
-    if setting != "1":
-        if _resolves[0] >= COMPILE_AFTER:
-            _load_in_background()
-        return None
     try:
         load_kernel()
     except ImportError:  # numba not installed: the NumPy path answers
@@ -131,29 +124,71 @@ def compiled_kernel(engage: int = 0):
     return _loaded.get("kernel")  # None when it failed to load (load_kernel warned)
 
 
-def _load_in_background() -> None:
-    """Start :func:`load_kernel` on a daemon thread, once per process (numba's cache files are
-    written to a temporary name and renamed: a process that ends during the compilation leaves
-    no partial cache). A failure (numba missing or unable to compile) leaves the NumPy path."""
-    if "loading" in _loaded:  # every re-solve while it loads: no lock taken
+def kernel_installed() -> bool:
+    """Whether re-solves take the compiled kernel in this process (an installation fact, the
+    same for every call): ``CLEARANCE_PIN_COMPILED`` is ``1``, or the kernel is loaded, or
+    numba's cache holds it as :func:`load_kernel` recorded it on this machine (the same kernel
+    source, Python, numba and ``NUMBA_CACHE_DIR``, every cache index file present); False for
+    ``0`` or after a failed load. The record is read once per process."""
+    setting = os.environ.get("CLEARANCE_PIN_COMPILED", "auto")
+    if setting == "0" or "failed" in _loaded:
+        return False
+    if setting == "1" or _loaded.get("kernel") is not None:
+        return True
+    installed = _loaded.get("installed")
+    if installed is None:
+        installed = _loaded["installed"] = _record_valid()
+    return bool(installed)
+
+
+def _record_path() -> Path | None:
+    """The file recording that numba's cache holds this kernel (:func:`_write_record`), in the
+    user's cache folder (``XDG_CACHE_HOME`` or ``~/.cache``), named by the kernel's stamp; None
+    when the stamp cannot be read (numba not installed)."""
+    try:
+        numba_version = importlib.metadata.version("numba")
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    source = Path(__file__).with_name("kernel.py").read_bytes()
+    stamp = hashlib.sha256(
+        b"\0".join([source, numba_version.encode(), sys.version.encode(),
+                     os.environ.get("NUMBA_CACHE_DIR", "").encode()])
+    ).hexdigest()[:20]  # fmt: skip
+    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(root) / "clearance_pin" / f"kernel-{stamp}.json"
+
+
+def _record_valid() -> bool:
+    """The record of :func:`_record_path` exists and every numba cache index it lists is there."""
+    path = _record_path()
+    try:
+        if path is None or not path.is_file():
+            return False
+        files = json.loads(path.read_text())["index_files"]
+        return bool(files) and all(os.path.isfile(name) for name in files)
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+
+
+def _write_record(kernel) -> None:
+    """Record numba's cache index files of the loaded ``kernel`` (:func:`_record_path`), so that
+    later processes take the kernel without compiling it; silently nothing where the user's
+    cache folder is not writable (those processes go the NumPy way)."""
+    path = _record_path()
+    if path is None:
         return
-    with _start_lock:  # not _lock, which load_kernel holds while it compiles
-        if "loading" in _loaded:
-            return
-        _loaded["loading"] = True
-
-    def load() -> None:
-        try:
-            load_kernel()
-        except Exception:  # any failure of numba's: the NumPy path answers
-            _loaded["failed"] = True
-
-    threading.Thread(target=load, name="clearance_pin-kernel", daemon=True).start()
-
-
-def kernel_loading() -> bool:
-    """Whether the kernel's load has started and not ended (:func:`compiled_kernel`)."""
-    return "loading" in _loaded and "kernel" not in _loaded and "failed" not in _loaded
+    folder = Path(str(kernel.solve_cases.stats.cache_path))
+    files = sorted(str(name) for name in folder.glob("kernel.*.nbi"))
+    if not files:
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        temporary = path.with_suffix(f".{os.getpid()}.tmp")
+        temporary.write_text(json.dumps({"index_files": files}))
+        os.replace(temporary, path)
+    except OSError:
+        return
+    _loaded["installed"] = True
 
 
 class BoundLoads(NamedTuple):
@@ -431,11 +466,11 @@ class FastTerms:
         return np.ascontiguousarray(matrix), np.ascontiguousarray(constant)
 
 
-def fast_terms(prepared: PreparedGeometry, resolves: int = 1) -> FastTerms | None:
+def fast_terms(prepared: PreparedGeometry) -> FastTerms | None:
     """The :class:`FastTerms` of ``prepared`` (built on first use), None when the kernel is not
-    engaged (:func:`compiled_kernel`), the mechanism has no verified solution yet (a first solve
+    installed (:func:`compiled_kernel`), the mechanism has no verified solution yet (a first solve
     goes the NumPy way) or the problem is larger than a dense Newton step pays for."""
-    if compiled_kernel(engage=resolves) is None:  # loaded, or loads now when it pays
+    if compiled_kernel(engage=1) is None:  # loaded, or loads now
         return None
     built = prepared.__dict__.get("_fast_terms")
     if built is not None:
@@ -487,6 +522,7 @@ def solve_compiled(
         code = solved[0][0, 0]
     if code in (kernel.UNBOUNDED, kernel.NO_WORK):
         return None  # the NumPy path raises or answers "indeterminate"
+    method = Method.COMPILED
     if code == kernel.SOLVED:
         status = STARTS[solved[0][0, kernel.START]]
     else:
@@ -503,13 +539,14 @@ def solve_compiled(
         built, built_now = backend_of(problem)
         y, lam, backend_status, iterations = built.run(problem)
         status = f"{backend_status} (compiled polish)"
+        method = backend_method(built.name)
         build_time = (built.build_time if built_now else 0.0) + getattr(built, "setup_time", 0.0)
         solved = fast.solve(cases, bound.matrix, bound.constant, y, lam, geometry.stack.sides(y))
         if solved[0][0, 0] != kernel.SOLVED:
             return None
     rows, flat = solved
-    return _verified_answer(fast, rows[0], flat, loads, status, iterations, build_time, started,
-                            output_points)  # fmt: skip
+    return _verified_answer(fast, rows[0], flat, loads, method, status, iterations, build_time,
+                            started, output_points)  # fmt: skip
 
 
 def resolve_compiled(fast: FastTerms, bound: BoundLoads, vector: np.ndarray, warm: ConeSolution,
@@ -523,11 +560,11 @@ def resolve_compiled(fast: FastTerms, bound: BoundLoads, vector: np.ndarray, war
     if row[0] != fast.kernel.SOLVED:
         return None
     status = STARTS[row[fast.kernel.START]]
-    return _verified_answer(fast, row, flat, LazySequence(loads_of), status, 0, 0.0, started,
-                            output_points)  # fmt: skip
+    return _verified_answer(fast, row, flat, LazySequence(loads_of), Method.COMPILED, status, 0,
+                            0.0, started, output_points)  # fmt: skip
 
 
-def _verified_answer(fast: FastTerms, row, flat, loads, status: str, iterations: int,
+def _verified_answer(fast: FastTerms, row, flat, loads, method: Method, status: str, iterations: int,
                      build_time: float, started: float, output_points) -> Equilibrium | None:  # fmt: skip
     """The Equilibrium of a kernel's SOLVED row when its residuals pass (the answer is kept as
     the next warm start), else None."""
@@ -537,13 +574,19 @@ def _verified_answer(fast: FastTerms, row, flat, loads, status: str, iterations:
     answer = fast.parts(row)
     prepared = fast.prepared
     prepared.mechanism.cache.warm[prepared.signature] = ConeSolution(
-        answer["y"], answer["multipliers"], answer["signs"], status, iterations, True
+        answer["y"],
+        answer["multipliers"],
+        answer["signs"],
+        status,
+        iterations,
+        True,
+        method=method,
     )
     return fast.equilibrium(
         row,
         flat,
         loads,
-        ("optimal", status, iterations, True),
+        ("optimal", method, status, iterations, True),
         (build_time, time.perf_counter() - started),
         output_points,
         answer,
@@ -587,7 +630,6 @@ def kernel_compiled_now() -> bool:
 
 
 __all__ = [
-    "COMPILE_AFTER",
     "BoundLoads",
     "FastTerms",
     "compiled_kernel",
@@ -595,7 +637,7 @@ __all__ = [
     "kernel_cache_dir",
     "kernel_compiled_now",
     "kernel_load_time",
-    "kernel_loading",
+    "kernel_installed",
     "load_kernel",
     "resolve_compiled",
     "solve_compiled",

@@ -32,6 +32,7 @@ def assemble_linear(
     multipliers,
     signs,
     status,
+    method,
     solver_status,
     iterations,
     polished,
@@ -71,7 +72,7 @@ def assemble_linear(
         multipliers,
         measured,
         float(problem.gradient @ x),
-        (status, solver_status, iterations, polished),
+        (status, method, solver_status, iterations, polished),
         (build_time, solve_time),
         problem.free_descriptions + flat_notes,
         loads,
@@ -98,11 +99,11 @@ def linear_equilibrium(
 ) -> Equilibrium:
     """The :class:`~.result.Equilibrium` of computed answer arrays: joint torsors (joints, 6)
     [m, rad], body twists (bodies, 6), contact gaps (m,) [m] and stacked force rows [N], the
-    multipliers, the measured residuals, the potential [J], ``outcome`` = (status, solver status,
-    iterations, polished), ``times`` = (build, solve) [s], the unknowns ``x`` (n,) (None: the
-    forces are reported as given); contacts and body motions are computed when read
-    (:mod:`.lazy`), the contact forces of statically indeterminate contacts split by least norm
-    (:func:`split_force_rows`)."""
+    multipliers, the measured residuals, the potential [J], ``outcome`` = (status, method (the
+    :class:`~.method.Method` that answered), solver status, iterations, polished), ``times`` =
+    (build, solve) [s], the unknowns ``x`` (n,) (None: the forces are reported as given);
+    contacts and body motions are computed when read (:mod:`.lazy`), the contact forces of
+    statically indeterminate contacts split by least norm (:func:`split_force_rows`)."""
     mechanism = prepared.mechanism
     owner = getattr(prepared, "nominal", prepared)  # the points of a trajectory share one
     template = owner.__dict__.get("_answer_template")
@@ -112,7 +113,8 @@ def linear_equilibrium(
         )
     equilibrium, state = template.new()
     state["configuration"] = prepared.configuration
-    state["status"], state["solver_status"], state["iterations"], state["polished"] = outcome
+    (state["status"], state["method"], state["solver_status"], state["iterations"],
+     state["polished"]) = outcome  # fmt: skip
     state["torsors"] = dict(zip(prepared.joint_names, torsor_array))
     state["body_motions"] = LazyMapping(
         lambda: prepared.body_motions(twists, mechanism.model.names)

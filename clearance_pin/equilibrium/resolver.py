@@ -14,6 +14,7 @@ interleaved with other work).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -22,16 +23,20 @@ from ..arguments import LARGEST_MAGNITUDE, SMALLEST_LOAD, check_load_magnitudes,
 from ..errors import ArgumentError, ClearancePinError, SolverError
 from ..model.loads import PointForce, Torque, with_vector
 from .blocks import block_structure
-from .fast_path import BoundLoads, FastTerms, fast_terms
+from .cone_solver import clarabel_available
+from .fast_path import BoundLoads, FastTerms, fast_terms, kernel_installed
+from .method import Method
 from .outputs import resolve_outputs
+from .plan import plan_linear
 from .prepared import prepared_geometry
 from .result import Equilibrium
 from .solve import resolve_linear, solve_linear
 
 
 class Resolver:
-    """One mechanism, one set of loads whose force and torque vectors change (small-displacement
-    model; the exact model: ``Mechanism.solve(exact=...)``).
+    """One mechanism, one set of loads whose force and torque vectors change; the options of
+    :meth:`Mechanism.solve` (``exact=True`` or ``"auto"``: each re-solve goes
+    ``Mechanism.solve``'s way from the resolved loads).
 
     Attributes:
         loads: the resolved loads (gravity last when on); ``solve`` replaces the vectors of the
@@ -49,8 +54,12 @@ class Resolver:
         backend: str = "auto",
         warm_start: bool = True,
         outputs=None,
+        exact: bool | str = False,
+        accuracy: float = 1e-9,
     ):
-        self._q = check_solve(mechanism, loads, False, q, gravity, tol, backend, 1e-9, warm_start)
+        self._q = check_solve(
+            mechanism, loads, exact, q, gravity, tol, backend, accuracy, warm_start, outputs
+        )
         self.mechanism = mechanism
         self.loads = mechanism.resolve_loads(loads, False if gravity is False else gravity)
         self._varying = [
@@ -68,13 +77,18 @@ class Resolver:
         self._points = resolve_outputs(mechanism, self.loads, outputs)
         self._prepared = prepared_geometry(mechanism, self._q)  # kept: valid while we hold it
         self._options = (tol, backend, warm_start)
-        # the compiled way, as solve_linear takes it (not for trees of closed-form blocks), here
-        # for warm re-solves with the kernel's own starts
-        self._compiled = (
-            warm_start
-            and backend == "auto"
-            and block_structure(self._prepared.geometry, bool(mechanism.loop_joints)) is None
+        self._exact = (exact, accuracy, outputs)
+        # the plan's structure of these loads (:func:`.plan.plan_linear`), read once
+        self._plan = functools.partial(
+            plan_linear,
+            independent_blocks=backend == "auto"
+            and block_structure(self._prepared.geometry, bool(mechanism.loop_joints)) is not None,
+            size=self._prepared.geometry.stack.size,
+            backend=backend,
+            clarabel=clarabel_available(),
         )
+        # the compiled re-solve with the kernel's own starts: a warm small-displacement solve
+        self._compiled = warm_start and not exact and backend == "auto"
         self._bound: tuple[FastTerms, BoundLoads] | None = None  # once the kernel is engaged
 
     def solve(self, values) -> Equilibrium:
@@ -91,12 +105,20 @@ class Resolver:
         largest = float(np.abs(vector).max())
         if largest > self._largest_value or 0.0 < largest < SMALLEST_LOAD:
             check_load_magnitudes(self._loads_with(vector), "values")
-        if self._compiled:
+        mechanism, (tol, backend, warm_start) = self.mechanism, self._options
+        if self._compiled and Method.COMPILED in self._plan(
+            solved_before=bool(mechanism.cache.warm), kernel=kernel_installed()
+        ):
             answer = self._resolve_compiled(vector)
             if answer is not None:
                 return answer
-        mechanism, (tol, backend, warm_start) = self.mechanism, self._options
+        exact, accuracy, outputs = self._exact
         try:
+            if exact:  # the exact model: Mechanism.solve's way, from the resolved loads
+                return mechanism._solve(
+                    self._loads_with(vector), exact, self._q, tol, backend, accuracy,
+                    warm_start, outputs,
+                )  # fmt: skip
             return solve_linear(
                 mechanism,
                 self._loads_with(vector),

@@ -26,6 +26,7 @@ import pinocchio as pin
 from ..errors import NotFoundError
 from ..kinematics.loop_frames import RIGID_TOLERANCE
 from ..model.frames import frame_id as find_frame
+from .method import Method
 from .outputs import output_displacements, resolve_outputs
 from .reactions import joint_reactions
 from .report import report
@@ -88,6 +89,9 @@ class Equilibrium:
         contacts: every contact point with its gap and force (active ones carry the load).
         energy: potential of the loads at the equilibrium [J].
         status: ``"optimal"``, or ``"indeterminate"`` (no load on any admissible motion).
+        method: the engine that answered (:class:`~.method.Method`): closed form, compiled
+            Newton, Clarabel, IPOPT, ...; the same call takes the same engine in every process
+            (:mod:`.plan`).
         solver_status: the optimiser's own status text.
         iterations: optimiser iterations.
         residuals: the residuals measured by the library (:class:`~.residuals.Residuals`:
@@ -124,6 +128,7 @@ class Equilibrium:
     contacts: Sequence[Contact]
     energy: float
     status: Status
+    method: Method
     solver_status: str
     iterations: int
     residuals: Residuals
@@ -262,6 +267,7 @@ class Equilibrium:
             ],
             "energy_J": self.energy,
             "free_motions": list(self.free_motions),
+            "method": self.method.value,
             "solver_status": self.solver_status,
             "iterations": self.iterations,
             "residuals": self.residuals.to_dict(),

@@ -26,9 +26,18 @@ from ..errors import (
 from ..numerics import norm
 from .block_verify import closed_form_answer
 from .blocks import block_structure
-from .cone_solver import WarmBet, backend_for, solve_cone
-from .fast_path import BoundLoads, FastTerms, fast_terms, resolve_compiled, solve_compiled
+from .cone_solver import backend_for, clarabel_available, solve_cone
+from .fast_path import (
+    BoundLoads,
+    FastTerms,
+    fast_terms,
+    kernel_installed,
+    resolve_compiled,
+    solve_compiled,
+)
 from .linear_answer import assemble_linear
+from .method import Method
+from .plan import plan_linear
 from .prepared import PreparedGeometry, prepared_geometry
 from .reduction import reduce_geometry
 from .result import Equilibrium
@@ -53,16 +62,24 @@ def solve_linear(
     """Small-displacement equilibrium (docs/method.md sections 2 and 3) with its residuals
     measured; raises SolverError (carrying the unverified answer) when they fail.
 
-    A mechanism solved before goes the compiled way first (:mod:`.fast_path`); what that does
-    not verify, and every first solve, goes the NumPy way below. ``prepared``: the mechanism
-    prepared at ``q``, when the caller keeps it (:mod:`.resolver`)."""
+    The engines are tried in the order :func:`.plan.plan_linear` gives, each answer judged by the
+    same measured residuals. ``warm_start``: the compiled kernel starts from the recent answers
+    (False: from the centred position). ``prepared``: the mechanism prepared at ``q``, when the
+    caller keeps it (:mod:`.resolver`)."""
     started = time.perf_counter()
     if prepared is None:
         prepared = prepared_geometry(mechanism, q)
-    closed_forms = backend == "auto" and (
-        block_structure(prepared.geometry, bool(mechanism.loop_joints)) is not None
+    cache = mechanism.cache
+    plan = plan_linear(
+        independent_blocks=backend == "auto"
+        and block_structure(prepared.geometry, bool(mechanism.loop_joints)) is not None,
+        size=prepared.geometry.stack.size,
+        solved_before=bool(cache.warm),
+        backend=backend,
+        kernel=kernel_installed(),
+        clarabel=clarabel_available(),
     )
-    fast = None if closed_forms else fast_terms(prepared)
+    fast = fast_terms(prepared) if Method.COMPILED in plan else None
     if fast is not None:
         answer = _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, started,
                            output_points)  # fmt: skip
@@ -89,6 +106,7 @@ def solve_linear(
             np.zeros(count),
             np.ones(count),
             "indeterminate",
+            Method.NO_LOAD,
             "no load works on any admissible motion",
             0,
             False,
@@ -107,23 +125,20 @@ def solve_linear(
                 indeterminate,
             )
         return indeterminate
-    closed = closed_form_answer(prepared, problem, loads, started) if closed_forms else None
+    closed = (
+        closed_form_answer(prepared, problem, loads, started)
+        if Method.CLOSED_FORM in plan
+        else None
+    )
     if closed is not None:  # a tree whose joints are independent blocks (blocks.py), verified
         _warn_if_inaccurate(mechanism, closed, problem.conditioning)
         return replace(closed, output_points=output_points) if output_points else closed
-    cache = mechanism.cache
-    built, built_now = backend_for(problem, backend, tol, prepared.signature, cache.backends)
-    warm = cache.warm.get(prepared.signature) if warm_start else None
-    with cache.lock:
-        bet = cache.warm_bets.setdefault(prepared.signature, WarmBet())
-    if warm is not None and not bet.worth_it():
-        warm = None
-    solution = solve_cone(problem, built, warm=warm)
-    if warm_start:
-        bet.record(warm is not None, solution.solve_time)
-    if not solution.polished and built.name != "ipopt":
+    cold = [method for method in plan if method in (Method.CLARABEL, Method.IPOPT)]
+    built, built_now = backend_for(problem, cold[0].value, tol, prepared.signature, cache.backends)
+    solution = solve_cone(problem, built)
+    if not solution.polished and len(cold) > 1:
         fallback, fallback_built = backend_for(
-            problem, "ipopt", tol, prepared.signature, cache.backends
+            problem, cold[1].value, tol, prepared.signature, cache.backends
         )
         second = solve_cone(problem, fallback)
         if second.polished or second.kkt_residual < solution.kkt_residual:
@@ -153,6 +168,7 @@ def solve_linear(
         solution.multipliers,
         solution.signs,
         "optimal",
+        solution.method,
         solution.status,
         solution.iterations,
         solution.polished,
