@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -124,7 +124,6 @@ def test_results_pickle_and_travel_through_a_process_pool():
     """Answers (whose contacts, motions and placements are computed when read) pickle with plain
     pickle, so solve_many runs on a ProcessPoolExecutor and gives the serial answers."""
     import pickle
-    from concurrent.futures import ProcessPoolExecutor
 
     mechanism = cp.load(MODELS / "four_bar.urdf")
     equilibrium = mechanism.solve()
@@ -259,3 +258,26 @@ def test_compiled_batch_in_chunks_on_threads(monkeypatch):
             assert (
                 np.abs(on_threads.torsors(joint)[i] - single.torsors[joint]).max() <= 1e-11 * play
             )
+
+
+def test_a_process_executor_returns_the_chunks_batches():
+    """With a process executor each chunk runs solve_many in its task (the arm's closed forms:
+    the chunk's batch travels as arrays) and the caller reads one batch: every whole-batch reader
+    equals the in-process batch's, items point at the caller's mechanism (issue 22: 2500 arm
+    cases took 4.5 s on a ProcessPoolExecutor(2) against 0.06 s in process, 0.16 s now)."""
+    arm = cp.load(MODELS / "arm_6r.urdf")
+    rng = np.random.default_rng(8)
+    cases = [[PointForce("tool", [0, 0, -50.0] + 15 * rng.standard_normal(3))] for _ in range(300)]
+    local = arm.solve_many(cases)
+    with ProcessPoolExecutor(2) as pool:
+        remote = arm.solve_many(cases, executor=pool, chunks=3)
+    assert len(remote) == len(local) and remote.ok.all()
+    assert remote.methods == local.methods
+    for joint in arm.joints:
+        assert np.allclose(remote.torsors(joint), local.torsors(joint), rtol=0, atol=1e-15)
+        assert np.allclose(remote.reactions(joint), local.reactions(joint), rtol=1e-12, atol=1e-9)
+    for name, torques in local.drive_torques().items():
+        assert np.allclose(remote.drive_torques()[name], torques, rtol=1e-12, atol=1e-9)
+    translation, _ = remote.frame_displacements("tool")
+    assert np.allclose(translation, local.frame_displacements("tool")[0], rtol=0, atol=1e-15)
+    assert remote[150].mechanism is arm and remote[299].torsor("elbow").shape == (6,)

@@ -15,7 +15,6 @@ import threading
 import time
 from collections.abc import Sequence
 from concurrent.futures import Executor, ThreadPoolExecutor
-from dataclasses import replace
 
 import numpy as np
 
@@ -410,17 +409,37 @@ def solve_many(
     count = chunks or min(len(cases), 4 * workers)
     bounds = np.linspace(0, len(cases), count + 1).astype(int)
     futures = [
-        executor.submit(_solve_chunk, mechanism, cases[a:b], options, errors, None, int(a))
+        executor.submit(_solve_part, mechanism, cases[a:b], options, errors, int(a))
         for a, b in itertools.pairwise(bounds)
         if b > a
     ]
-    results = []
+    parts = []
     for future in futures:
-        chunk = future.result()
-        results.extend(r if isinstance(r, Exception) else _reattached(r, mechanism) for r in chunk)
-        bar.update(len(chunk))
+        part = future.result()
+        parts.append(part)
+        bar.update(len(part))
     bar.close()
-    return EquilibriumBatch(results)
+    from .chained_batch import ChainedBatch
+
+    return ChainedBatch(parts, mechanism)
+
+
+def _solve_part(mechanism, cases: Cases, options: dict, errors: str, start: int):
+    """An executor's task: :func:`solve_many` of one chunk of cases (its batched engines, in the
+    task's process), its batch; an error raised names its case in the whole batch (``start``:
+    the chunk's first)."""
+    try:
+        return solve_many(
+            mechanism, cases.loads, cases.configurations, **options, errors=errors, progress=False
+        )
+    except ClearancePinError as error:
+        notes = getattr(error, "__notes__", [])
+        local = [note for note in notes if note.startswith("solve_many: in case ")]
+        for note in local:
+            notes.remove(note)
+            index = int(note.removeprefix("solve_many: in case ").split()[0])
+            name_case(error, start + index)
+        raise
 
 
 def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumBatch:
@@ -740,11 +759,3 @@ def _lazy_item(prepared, load, y, multipliers, signs, table, loads, outputs=None
         )
 
     return build
-
-
-def _reattached(equilibrium, mechanism):
-    """A result computed in another process, pointing at the caller's mechanism object."""
-    linear = equilibrium.linear
-    if linear is not None:
-        linear = replace(linear, mechanism=mechanism)
-    return replace(equilibrium, mechanism=mechanism, linear=linear)

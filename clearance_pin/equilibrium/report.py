@@ -194,7 +194,8 @@ def report(equilibrium) -> str:
         lines.append("free (indeterminate, set to the minimum-norm point):")
         lines += [f"  {motion}" for motion in free]
     lines.append(
-        f"solver: {equilibrium.solver_status}, {equilibrium.iterations} iterations, "
+        f"solver: {equilibrium.method.value} ({equilibrium.solver_status}), "
+        f"{equilibrium.iterations} iterations, "
         f"polished={equilibrium.polished}; KKT {r.get('stationarity', 0.0):.1e}, statics "
         f"{r.get('statics', 0.0):.1e}, max violation "
         f"{abs(r.get('max_violation_m', 0.0)) * UM:.1e} um; "
