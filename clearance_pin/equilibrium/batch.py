@@ -33,7 +33,7 @@ from .outputs import resolve_outputs
 from .prepared import prepared_geometry
 from .reactions import FRAMES
 from .reduction import loaded_problem
-from .residuals import FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
+from .residuals import verified as measured_ok
 
 BATCH_MINIMUM = 16
 BATCH_MAX_SIZE = 48  # reduced unknowns beyond which cases are solved one by one (warm-started)
@@ -506,7 +506,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         gaps, forces = prepared.contact_state(x, multipliers, seed.signs, sigmas[group][:, None])
         statics = prepared.statics_residual(gradients[group], forces, load_sizes[group])
         violation = np.maximum(-gaps / prepared.bounds, 0.0).max(axis=1, initial=0.0)
-        verified &= (statics <= STATICS_TOLERANCE) & (violation <= FEASIBILITY_TOLERANCE)
+        verified &= measured_ok(statics, violation)
         for k in np.flatnonzero(verified):
             i = group[k]
             items[i] = _lazy_item(
@@ -602,11 +602,7 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
     x_column = next(start for name, start, _, _ in fast.layout if name == "x")
     x_all = np.full((len(cases), prepared.size_x), np.nan)
     statics, violation = rows[:, 7], rows[:, 9]
-    good = (
-        (rows[:, 0] == fast.kernel.SOLVED)
-        & (statics <= STATICS_TOLERANCE)
-        & (violation <= FEASIBILITY_TOLERANCE)
-    )
+    good = (rows[:, 0] == fast.kernel.SOLVED) & measured_ok(statics, violation)
     x_all[1:][good] = rows[good, x_column : x_column + prepared.size_x]
     batched = np.concatenate([[False], good])
     items: list = [first]  # None: a verified case, assembled when read (_compiled_item)

@@ -34,7 +34,7 @@ from .linear_answer import assemble_linear
 from .load_table import body_terms, centred_wrenches
 from .method import Method
 from .reduction import ReducedProblem, describe_motion
-from .residuals import DUAL_TOLERANCE, FEASIBILITY_TOLERANCE, STATICS_TOLERANCE
+from .residuals import verified
 from .tree_trajectory import centre_map, tree_maps
 
 if TYPE_CHECKING:
@@ -150,13 +150,9 @@ def verify(
     )
     statics = np.reshape(prepared.statics_residual(gradients, forces, load_sizes), -1)
     violation = np.maximum(-gaps / prepared.bounds, 0.0).max(axis=1, initial=0.0)
-    verified = (
-        passed
-        & (table[:, 3] <= DUAL_TOLERANCE)
-        & (statics <= STATICS_TOLERANCE)
-        & (violation <= FEASIBILITY_TOLERANCE)
+    return Verification(
+        passed & verified(statics, violation, table[:, 3]), table, statics, neglected
     )
-    return Verification(verified, table, statics, neglected)
 
 
 def flat_notes(

@@ -58,6 +58,18 @@ class Tolerances:
     closure: float = FEASIBILITY_TOLERANCE
 
 
+def verified(statics, violation_rel, dual=0.0, tolerances: Tolerances = Tolerances()):
+    """The one verifier's test of the measured residuals, for one answer (floats) or a batch
+    (arrays, element-wise): statics residual (relative to the load), penetration over the play
+    and pulling multiplier each within :class:`Tolerances`. Every engine's answer passes it
+    (:meth:`Residuals.ok` adds the exact model's closure and gauge checks)."""
+    return (
+        (statics <= tolerances.statics)
+        & (violation_rel <= tolerances.feasibility)
+        & (dual <= tolerances.dual)
+    )
+
+
 @dataclass(frozen=True)
 class Residuals(Mapping):
     """Measured residuals of one answer (see the module docstring); read like a mapping of the
@@ -92,13 +104,10 @@ class Residuals(Mapping):
             self.clearance_m, 1e-12
         )
         held = self.held_by_gauge is None or self.held_by_gauge <= tolerances.statics
-        return (
-            self.max_violation_rel <= tolerances.feasibility
-            and self.statics <= tolerances.statics
-            and self.dual_infeasibility <= tolerances.dual
-            and closed
-            and held
+        measured = verified(
+            self.statics, self.max_violation_rel, self.dual_infeasibility, tolerances
         )
+        return bool(measured) and closed and held
 
     def to_dict(self) -> dict[str, float]:
         """The quantities measured, JSON-ready."""
@@ -122,6 +131,7 @@ class Residuals(Mapping):
 
 __all__ = [
     "DUAL_TOLERANCE",
+    "verified",
     "FEASIBILITY_TOLERANCE",
     "STATICS_TOLERANCE",
     "Residuals",
