@@ -29,6 +29,8 @@ MODELS = Path(__file__).resolve().parent.parent / "models"
         ({"kernel": True}, (Method.COMPILED, Method.CLARABEL, Method.IPOPT)),
         ({"kernel": True, "solved_before": False}, (Method.CLARABEL, Method.IPOPT)),
         ({"kernel": True, "size": 49}, (Method.CLARABEL, Method.IPOPT)),
+        ({"kernel": True, "contacts": 13}, (Method.CLARABEL, Method.IPOPT)),
+        ({"kernel": True, "contacts": 12}, (Method.COMPILED, Method.CLARABEL, Method.IPOPT)),
         ({"kernel": True, "backend": "clarabel"}, (Method.COMPILED, Method.CLARABEL, Method.IPOPT)),
         ({"kernel": False}, (Method.CLARABEL, Method.IPOPT)),
         ({"clarabel": False}, (Method.IPOPT,)),
@@ -42,6 +44,7 @@ def test_the_plan_is_a_function_of_structure_and_options(structure, expected):
     arguments = {
         "independent_blocks": False,
         "size": 12,
+        "contacts": 6,
         "solved_before": True,
         "backend": "auto",
         "kernel": False,

@@ -34,6 +34,7 @@ from .prepared import prepared_geometry
 from .reactions import FRAMES
 from .reduction import loaded_problem
 from .residuals import verified as measured_ok
+from .solve import linear_plan
 
 BATCH_MINIMUM = 16
 BATCH_MAX_SIZE = 48  # reduced unknowns beyond which cases are solved one by one (warm-started)
@@ -457,7 +458,8 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
     prepared = prepared_geometry(mechanism)
     geometry = prepared.geometry
-    fast = fast_terms(prepared)
+    plan = linear_plan(mechanism, prepared, options["backend"])
+    fast = fast_terms(prepared) if Method.COMPILED in plan else None
     if fast is not None:
         compiled = _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, errors)
         if compiled is not None:

@@ -84,6 +84,7 @@ class Resolver:
             independent_blocks=backend == "auto"
             and block_structure(self._prepared.geometry, bool(mechanism.loop_joints)) is not None,
             size=self._prepared.geometry.stack.size,
+            contacts=self._prepared.geometry.stack.count,
             backend=backend,
             clarabel=clarabel_available(),
         )

@@ -70,15 +70,7 @@ def solve_linear(
     if prepared is None:
         prepared = prepared_geometry(mechanism, q)
     cache = mechanism.cache
-    plan = plan_linear(
-        independent_blocks=backend == "auto"
-        and block_structure(prepared.geometry, bool(mechanism.loop_joints)) is not None,
-        size=prepared.geometry.stack.size,
-        solved_before=bool(cache.warm),
-        backend=backend,
-        kernel=kernel_installed(),
-        clarabel=clarabel_available(),
-    )
+    plan = linear_plan(mechanism, prepared, backend)
     fast = fast_terms(prepared) if Method.COMPILED in plan else None
     if fast is not None:
         answer = _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, started,
@@ -210,6 +202,23 @@ def solve_linear(
     return equilibrium
 
 
+def linear_plan(mechanism, prepared: PreparedGeometry, backend: str) -> tuple[Method, ...]:
+    """:func:`.plan.plan_linear` of ``mechanism`` prepared at one configuration (``prepared``)
+    with the caller's ``backend``: its structure, whether it has a verified answer, and what is
+    installed."""
+    geometry = prepared.geometry
+    return plan_linear(
+        independent_blocks=backend == "auto"
+        and block_structure(geometry, bool(mechanism.loop_joints)) is not None,
+        size=geometry.stack.size,
+        contacts=geometry.stack.count,
+        solved_before=bool(mechanism.cache.warm),
+        backend=backend,
+        kernel=kernel_installed(),
+        clarabel=clarabel_available(),
+    )
+
+
 def _singular_position(mechanism, prepared: PreparedGeometry) -> bool:
     """True when the motions nothing blocks at the configuration of ``prepared`` are fewer at a
     configuration 1e-6 [rad or m] away in a fixed random direction: they exist only at this
@@ -312,4 +321,4 @@ def _warn_if_inaccurate(mechanism, equilibrium: Equilibrium, conditioning: float
         )
 
 
-__all__ = ["resolve_linear", "solve_linear", "toggle_rotation"]
+__all__ = ["linear_plan", "resolve_linear", "solve_linear", "toggle_rotation"]
