@@ -105,6 +105,12 @@ class Reaction:
         """(force, moment) (6,) [N, N m]."""
         return np.concatenate([self.force, self.moment])
 
+    def as_force(self) -> pin.Force:
+        """The wrench as a ``pin.Force`` (linear: force [N], angular: moment [N m] about
+        :attr:`point`), in :attr:`frame`'s axes: the clearance frame (``"joint"``, Pinocchio's
+        ``LOCAL`` of that frame) or the world (``"world"``, Pinocchio's ``WORLD``)."""
+        return pin.Force(self.force, self.moment)
+
     def __array__(self, dtype=None, copy=None) -> np.ndarray:
         """``np.asarray(reaction)``: the wrench (force, moment) (6,)."""
         return self.wrench if dtype is None else self.wrench.astype(dtype)

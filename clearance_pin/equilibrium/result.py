@@ -26,6 +26,7 @@ import pinocchio as pin
 from ..errors import NotFoundError
 from ..kinematics.loop_frames import RIGID_TOLERANCE
 from ..model.frames import frame_id as find_frame
+from .displacement import Displacement, displacement_in
 from .method import Method
 from .outputs import output_displacements, resolve_outputs
 from .reactions import joint_reactions
@@ -161,27 +162,47 @@ class Equilibrium:
             raise NotFoundError("joint", joint, tuple(self.torsors))
         return self.torsors[joint].copy()
 
-    def frame_displacement(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
-        """Displacement of a Pinocchio frame: (translation of its origin [m], rotation [rad]), world.
+    def frame_placement(self, frame: str) -> pin.SE3:
+        """World placement of a Pinocchio frame at the solved pose (linear: its body moved by the
+        rigid motion exp(xi_b) of its small twist; exact: the finite motion)."""
+        frame_id, body = self._frame(frame)
+        model = cast("Mechanism", self.mechanism).model
+        return self.body_placements[body] * model.frames[frame_id].placement
+
+    def frame_displacement(
+        self, frame: str, reference_frame=pin.LOCAL_WORLD_ALIGNED
+    ) -> Displacement:
+        """Displacement of a Pinocchio frame from its nominal pose, a ``pin.Motion`` (linear [m],
+        angular [rad]) in ``reference_frame`` (:mod:`.displacement`: ``pin.LOCAL_WORLD_ALIGNED``,
+        the default, is the translation of the frame's origin and the rotation vector, world
+        axes; ``pin.LOCAL``: the frame's nominal axes; ``pin.WORLD``: the point at the world
+        origin). It also unpacks as ``translation, rotation``.
 
         Linear formulation: :math:`(v_b + \\omega_b \\times p_f, \\omega_b)` from the body twist;
         exact: the finite displacement, rotation as a rotation vector (log3).
         """
+        frame_id, body = self._frame(frame)
+        model = cast("Mechanism", self.mechanism).model
+        nominal = cast("Configuration", self.configuration).oMf[frame_id]
+        if self.body_twists is not None:
+            twist = self.body_twists[body]
+            translation = twist[:3] + np.cross(twist[3:], nominal.translation)
+            rotation = twist[3:].copy()
+        else:
+            moved = self.body_placements[body] * model.frames[frame_id].placement
+            translation = moved.translation - nominal.translation
+            rotation = np.asarray(pin.log3(moved.rotation @ nominal.rotation.T))
+        return displacement_in(translation, rotation, nominal, reference_frame)
+
+    def _frame(self, frame: str) -> tuple[int, int]:
+        """(frame id, its parent joint) of a Pinocchio frame name; NotFoundError naming the
+        frames otherwise."""
         mechanism = cast("Mechanism", self.mechanism)
         model = mechanism.model
         frame_id = find_frame(model, frame)
         if frame_id is None:
             raise NotFoundError("frame", frame, [f.name for f in model.frames], mechanism.name)
-        body = model.frames[frame_id].parentJoint
-        nominal = cast("Configuration", self.configuration).oMf[frame_id]
-        if self.body_twists is not None:
-            twist = self.body_twists[body]
-            return twist[:3] + np.cross(twist[3:], nominal.translation), twist[3:].copy()
-        moved = self.body_placements[body] * model.frames[frame_id].placement
-        return (
-            moved.translation - nominal.translation,
-            np.asarray(pin.log3(moved.rotation @ nominal.rotation.T)),
-        )
+        return frame_id, int(model.frames[frame_id].parentJoint)
 
     @property
     def outputs(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
