@@ -317,26 +317,35 @@ class Mechanism:
     def _not_a_link(self, name: str) -> str:
         """Why ``name`` cannot carry a load: unknown, or a frame (an MJCF site, a URDF frame
         that is no link) named with the link and the point [m] to write instead."""
-        model = self.model
-        frame_id = find_frame(model, name)
-        if frame_id is None:
+        if find_frame(self.model, name) is None:
             return f"unknown link; the links are: {', '.join(sorted(self.link_frames))}"
-        frame = model.frames[frame_id]
-        links = set(self.link_frames.values())
-        # the link the frame hangs from, else the first link moving with it
-        link_id = frame.parentFrame if frame.parentFrame in links else None
-        if link_id is None:
-            link_id = next(
-                i for i in sorted(links) if model.frames[i].parentJoint == frame.parentJoint
-            )
-        link = model.frames[link_id]
-        point = (link.placement.inverse() * frame.placement).translation
+        link, point = self.link_point(name)
         return (
             f"a frame (an MJCF site or a URDF frame), not a link: a load is applied to a link "
-            f"(an MJCF body) at a point in the link's frame; {name!r} is on link {link.name!r} "
+            f"(an MJCF body) at a point in the link's frame; {name!r} is on link {link!r} "
             f"at [{point[0]:.6g} {point[1]:.6g} {point[2]:.6g}] m: write PointForce("
-            f"{link.name!r}, force, point=[{point[0]:.6g}, {point[1]:.6g}, {point[2]:.6g}])"
+            f"{link!r}, force, point=[{point[0]:.6g}, {point[1]:.6g}, {point[2]:.6g}])"
         )
+
+    def link_point(self, frame: str) -> tuple[str, np.ndarray]:
+        """(the link a Pinocchio frame moves with, the frame's origin in that link's frame [m]):
+        where a load at the frame is applied (``PointForce(link, force, point=point)``); the
+        link the frame hangs from, else the first link moving with it."""
+        model = self.model
+        frame_id = find_frame(model, frame)
+        if frame_id is None:
+            raise NotFoundError("frame", frame, [f.name for f in model.frames], self.name)
+        placed = model.frames[frame_id]
+        links = set(self.link_frames.values())
+        link_id = placed.parentFrame if placed.parentFrame in links else None
+        if frame_id in links:
+            link_id = frame_id
+        if link_id is None:
+            link_id = next(
+                i for i in sorted(links) if model.frames[i].parentJoint == placed.parentJoint
+            )
+        link = model.frames[link_id]
+        return link.name, (link.placement.inverse() * placed.placement).translation
 
     # -- solving --------------------------------------------------------------------------
     def solve(
@@ -448,6 +457,15 @@ class Mechanism:
         from .envelope import envelope
 
         return envelope(self, output, q=q, exact=exact, **options)
+
+    def accuracy(self, output: str, configurations, payloads=(0.0,), gravity=None):
+        """The accuracy map of ``output`` (a Pinocchio frame, the tool) over poses
+        ``configurations`` (Q, nq) and ``payloads`` (masses [kg] at the output, or load cases):
+        its displacement (Q, P, 3) and each joint's and source's share of it; see
+        :func:`clearance_pin.accuracy.accuracy_map`."""
+        from .accuracy import accuracy_map
+
+        return accuracy_map(self, output, configurations, payloads, gravity)
 
     def resolver(self, loads=None, q=None, gravity=None, outputs=None, **options):
         """A :class:`~clearance_pin.equilibrium.resolver.Resolver`: ``loads`` (default: the
