@@ -145,10 +145,15 @@ def accuracy_map(
     ok = np.zeros((count, len(cases)), dtype=bool)
     levers = _levers(mechanism, frame, poses)
     for k, loads in enumerate(cases):
+        if not mechanism.resolve_loads(loads, False if gravity is False else gravity):
+            ok[:, k] = True  # no load at all: every pose stays at its nominal place
+            continue
         batch = mechanism.solve_many(  # type: ignore[no-untyped-call]
             [loads] * count, configurations=poses, gravity=gravity, errors="return"
         )
         ok[:, k] = batch.ok
+        if not ok[:, k].any():  # no pose solves: a fault of the model or the payload, said once
+            raise batch[0]
         for joint in joints:
             if joint.name not in levers:
                 continue  # not between the ground and the output: it does not move it
