@@ -3,6 +3,7 @@
     clearance-pin solve MODEL [--clearances FILE] [--exact] [--json] [--check] [--output FRAME]
                         [--plot FILE] [--gravity on|off] [--package-dir DIR]
     clearance-pin envelope MODEL [--clearances FILE] [--output FRAME] [--plot F] [--json F]
+    clearance-pin accuracy MODEL --output FRAME [--poses N] [--payload KG ...] [--plot F] [--json F]
     clearance-pin tolerance MODEL [--clearances FILE] ...   (``clearance-pin tolerance --help``)
     clearance-pin compile              (the compiled kernel of re-solves, once per machine)
     clearance-pin --version            (also: python -m clearance_pin ...)
@@ -140,9 +141,11 @@ def build_parser() -> argparse.ArgumentParser:
     solve.set_defaults(run=_solve)
     tolerance_command: ModuleType | None
     from . import compile_command
+    from .accuracy import command as accuracy_command
     from .envelope import command as envelope_command
 
     envelope_command.register(commands)
+    accuracy_command.register(commands)
     try:
         from .tolerance import command as tolerance_command
     except ImportError:

@@ -111,3 +111,29 @@ def test_bad_arguments_are_named():
         arm.accuracy("tool", arm.q_nominal, payloads=[1.0, -2.0])
     with pytest.raises(cp.ArgumentError, match=r"payloads\[0\]"):
         arm.accuracy("tool", arm.q_nominal, payloads=["heavy"])
+
+
+def test_the_command_line(tmp_path, capsys):
+    """`clearance-pin accuracy`: the table, the JSON summary (its numbers those of the library's
+    map of the same poses), the picture; poses from a file; a bad frame exits 2."""
+    import json
+
+    from clearance_pin.accuracy.command import random_poses
+    from clearance_pin.cli import main
+
+    model = str(MODELS / "arm_6r.urdf")
+    out = tmp_path / "map.json"
+    status = main(["accuracy", model, "--output", "tool", "--poses", "40", "--payload", "0",
+                   "--payload", "3", "--json", str(out), "--plot", str(tmp_path / "map.png")])  # fmt: skip
+    assert status == 0
+    assert "what moves the output most" in capsys.readouterr().out
+    document = json.loads(out.read_text())
+    arm = cp.load(model)
+    amap = arm.accuracy("tool", random_poses(arm, 40, 0.5, 0), payloads=[0.0, 3.0])
+    assert document["largest_translation_m"] == pytest.approx(amap.largest()[0], rel=1e-12)
+    assert [c["joint"] for c in document["contributors"]] == [r[1] for r in amap.ranking()]
+    assert (tmp_path / "map.png").stat().st_size > 10_000
+    poses = tmp_path / "poses.txt"
+    poses.write_text("\n".join(" ".join(map(str, q)) for q in amap.configurations[:3]))
+    assert main(["accuracy", model, "--output", "tool", "--configurations", str(poses)]) == 0
+    assert main(["accuracy", model, "--output", "no_such_frame"]) == 2
