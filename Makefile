@@ -28,8 +28,8 @@ demo: $(RUNTIME)
 # lint and types first (seconds), then the suite with one BLAS thread: the solver's matrices are
 # small, and threads fight on a busy machine.
 test: $(TESTING)
-	$(BIN)/ruff check clearance_pin tests benchmarks validation
-	$(BIN)/ruff format --check clearance_pin tests benchmarks validation
+	$(BIN)/ruff check clearance_pin tests benchmarks validation examples
+	$(BIN)/ruff format --check clearance_pin tests benchmarks validation examples
 	$(BIN)/mypy clearance_pin
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m pytest
 
