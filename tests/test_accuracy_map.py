@@ -137,3 +137,20 @@ def test_the_command_line(tmp_path, capsys):
     poses.write_text("\n".join(" ".join(map(str, q)) for q in amap.configurations[:3]))
     assert main(["accuracy", model, "--output", "tool", "--configurations", str(poses)]) == 0
     assert main(["accuracy", model, "--output", "no_such_frame"]) == 2
+
+
+def test_an_answer_splits_its_output_by_joint():
+    """Equilibrium.contributions(frame): the joints' shares sum to the frame's displacement
+    (the library's twist maps: another computation of the same first-order motion), largest
+    first; the text table ranks them; a loop mechanism's table leaves them out."""
+    arm = cp.load(str(MODELS / "arm_6r.urdf"))
+    answer = arm.solve(outputs=["tool"])
+    shares = answer.contributions("tool")
+    moved = answer.frame_displacement("tool")
+    assert np.allclose(sum(t for t, _ in shares.values()), moved.linear, rtol=0, atol=1e-16)
+    assert np.allclose(sum(r for _, r in shares.values()), moved.angular, rtol=0, atol=1e-16)
+    norms = [np.linalg.norm(t) for t, _ in shares.values()]
+    assert norms == sorted(norms, reverse=True)
+    assert "what moves tool" in answer.table()
+    four_bar = cp.load(str(MODELS / "four_bar.urdf")).solve()
+    assert "what moves" not in four_bar.table()

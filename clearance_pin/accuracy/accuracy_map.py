@@ -13,9 +13,9 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pinocchio as pin
 
 from ..errors import ArgumentError, NotFoundError
+from ..kinematics.joint_shares import joint_levers, moved_by
 from ..model.frames import frame_id as find_frame
 from ..model.joints import TreeJoint
 from ..model.loads import Gravity, PointForce, Torque
@@ -143,7 +143,7 @@ def accuracy_map(
         source: {j.name: np.zeros((count, len(cases), 3)) for j in joints} for source in SOURCES
     }
     ok = np.zeros((count, len(cases)), dtype=bool)
-    levers = _levers(mechanism, frame, poses)
+    levers = joint_levers(model, mechanism.tree_joints, frame, poses)
     for k, loads in enumerate(cases):
         if not mechanism.resolve_loads(loads, False if gravity is False else gravity):
             ok[:, k] = True  # no load at all: every pose stays at its nominal place
@@ -160,9 +160,8 @@ def accuracy_map(
             axes, arms = levers[joint.name]
             torsor = batch.torsors(joint.name)  # (Q, 6) [m, rad], clearance frame
             for source, part in _by_source(joint, torsor).items():
-                moved = np.einsum("qab,qb->qa", axes, part[:, :3])
-                turned = np.einsum("qab,qb->qa", axes, part[:, 3:])
-                shares[source][joint.name][:, k] = moved + np.cross(turned, arms)
+                moved, turned = moved_by(axes, arms, part)
+                shares[source][joint.name][:, k] = moved
                 turns[source][joint.name][:, k] = turned
         translation[:, k] = sum(s[:, k] for by in shares.values() for s in by.values())
         rotation[:, k] = sum(s[:, k] for by in turns.values() for s in by.values())
@@ -234,32 +233,6 @@ def _describe(load: Any) -> str:
     if isinstance(load, Torque):
         return f"{np.linalg.norm(load.torque):.4g} N m on {load.link}"
     return "gravity"
-
-
-def _levers(
-    mechanism: Mechanism, frame: int, poses: np.ndarray
-) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Per tree joint between the ground and the output frame: its clearance frame's axes R_j
-    (Q, 3, 3) and the arm p - c_j from its centre to the output's origin (Q, 3) [m], world
-    axes, from Pinocchio's forward kinematics of each pose."""
-    model = mechanism.model
-    data = model.createData()
-    body = model.frames[frame].parentJoint
-    chain = set()
-    while body:
-        chain.add(body)
-        body = model.parents[body]
-    joints = [joint for joint in mechanism.tree_joints if joint.joint_id in chain]
-    axes = {joint.name: np.zeros((len(poses), 3, 3)) for joint in joints}
-    arms = {joint.name: np.zeros((len(poses), 3)) for joint in joints}
-    for i, q in enumerate(poses):
-        pin.forwardKinematics(model, data, q)
-        point = pin.updateFramePlacement(model, data, frame).translation
-        for joint in joints:
-            placed = data.oMi[joint.joint_id]
-            axes[joint.name][i] = placed.rotation @ joint.rotation
-            arms[joint.name][i] = point - placed.translation
-    return {joint.name: (axes[joint.name], arms[joint.name]) for joint in joints}
 
 
 def _by_source(joint: TreeJoint, torsor: np.ndarray) -> dict[str, np.ndarray]:

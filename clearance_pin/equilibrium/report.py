@@ -95,6 +95,31 @@ def outputs_table(equilibrium) -> list[str]:
     ]
 
 
+def contributors_table(equilibrium) -> list[str]:
+    """Per output frame of a mechanism without loops: each joint's share of its translation [um]
+    (:meth:`~.result.Equilibrium.contributions`), largest first, with its part of the total."""
+    if equilibrium.mechanism.loop_joints:  # a loop's passive joints follow: no own share
+        return []
+    lines: list[str] = []
+    for name, (translation, _) in equilibrium.outputs.items():
+        if "@" in name:  # a loaded point, not a frame
+            continue
+        shares = equilibrium.contributions(name)
+        total = float(np.linalg.norm(translation))
+        if not shares or total == 0.0:
+            continue
+        rows = [
+            [joint, f"{np.linalg.norm(t) * UM:.4g}", vector(t, UM),
+             f"{np.dot(t, translation) / total**2 * 100:.1f}"]
+            for joint, (t, _) in shares.items()
+        ]  # fmt: skip
+        lines += [
+            f"what moves {name}: each joint's play, world axes (shares sum to its translation)",
+            *columns(["joint", "|share| [um]", "share (world) [um]", "along it [%]"], rows),
+        ]
+    return lines
+
+
 def bearing_loads_table(equilibrium) -> list[str]:
     """Per joint: radial and axial force [N], transverse moment and drive torque [N m] (the drive
     force [N] of a driven prismatic joint), in the joint's clearance frame."""
@@ -172,6 +197,7 @@ def report(equilibrium) -> str:
         f"energy {equilibrium.energy:.6g} J",
         "",
         *outputs_table(equilibrium),
+        *contributors_table(equilibrium),
     ]
     if equilibrium.difference:
         lines.append(

@@ -24,6 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import NotFoundError
+from ..kinematics.joint_shares import joint_levers, moved_by
 from ..kinematics.loop_frames import RIGID_TOLERANCE
 from ..model.frames import frame_id as find_frame
 from .displacement import Displacement, displacement_in
@@ -193,6 +194,24 @@ class Equilibrium:
             translation = moved.translation - nominal.translation
             rotation = np.asarray(pin.log3(moved.rotation @ nominal.rotation.T))
         return displacement_in(translation, rotation, nominal, reference_frame)
+
+    def contributions(self, frame: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """What each joint's play moves a Pinocchio frame: joint name -> (translation (3,) [m],
+        rotation (3,) [rad]), world axes, largest first (:mod:`..kinematics.joint_shares`:
+        :math:`R_j v_j + (R_j \\omega_j) \\times (p - c_j)`, the joints between the ground and
+        the frame). The shares sum to the small-displacement model's :meth:`frame_displacement`
+        (to first order in the rotations for an exact answer); joints that do not move the frame
+        are left out."""
+        frame_id, _ = self._frame(frame)
+        mechanism = cast("Mechanism", self.mechanism)
+        q = cast("Configuration", self.configuration).q
+        levers = joint_levers(mechanism.model, mechanism.tree_joints, frame_id, q[None])
+        shares = {}
+        for name, (axes, arms) in levers.items():
+            moved, turned = moved_by(axes, arms, self.torsors[name][None])
+            if np.any(moved) or np.any(turned):
+                shares[name] = (moved[0], turned[0])
+        return dict(sorted(shares.items(), key=lambda item: -float(np.linalg.norm(item[1][0]))))
 
     def _frame(self, frame: str) -> tuple[int, int]:
         """(frame id, its parent joint) of a Pinocchio frame name; NotFoundError naming the
