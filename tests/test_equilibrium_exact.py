@@ -172,8 +172,8 @@ def test_newton_from_the_linear_solution_equals_ipopt(case_id, monkeypatch):
     ipopt_route = build_case(CASES[case_id])
     original = exact_module._linear_start
 
-    def no_start(linear, shapes, sigma):
-        upper, lower, multipliers = original(linear, shapes, sigma)
+    def no_start(linear, shapes, sigma, levers):
+        upper, lower, multipliers = original(linear, shapes, sigma, levers)
         return np.zeros_like(upper), np.zeros_like(lower), multipliers
 
     play = max(c.clearance for c in mechanism.solve().contacts)

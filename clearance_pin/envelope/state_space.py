@@ -155,12 +155,6 @@ def _skew(a: Matrix) -> Matrix:
     return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
 
-def _point_rows(point: tuple[float, float, float], components: tuple[int, ...]) -> Matrix:
-    r"""Rows mapping a torsor (V, Omega) to the selected components of $V + \Omega \times r$."""
-    rows = np.hstack([np.eye(3), -_skew(np.asarray(point, dtype=float))])
-    return np.asarray(rows[list(components)], dtype=float)
-
-
 def build_state_space(mechanism: Any, configuration: Any, output: Output) -> StateSpace:
     """The :class:`StateSpace` of ``mechanism`` at ``configuration`` for ``output`` (see the
     module docstring for the equations)."""
@@ -204,15 +198,13 @@ def build_state_space(mechanism: Any, configuration: Any, output: Output) -> Sta
     with_play: list[tuple[str, Matrix, Matrix, float, str]] = []
     for name, clearance, torsor, offset in contact_maps:
         for contact in clearance.contacts:
-            rows = _point_rows(contact.point, contact.components) @ torsor
+            rows = contact.linear_rows() @ torsor
             if contact.bound == 0.0:
                 equalities.append(rows)
                 continue
             moved = np.zeros(len(contact.components))
             if offset is not None:
-                r = np.asarray(contact.point, dtype=float)
-                shifted = offset.translation + offset.rotation @ r - r
-                moved = np.asarray(shifted, dtype=float)[list(contact.components)]
+                moved = contact.displacement(offset.rotation, offset.translation)
             with_play.append((f"{name}:{contact.name}", rows, moved, contact.bound, contact.shape))
     closure = _null_space(np.vstack(equalities) if equalities else np.zeros((0, n_z)), n_z)
     contacts = tuple(

@@ -379,7 +379,8 @@ def _mode(state: Any, sides: dict[str, int]) -> tuple[str, ...]:
         if component is None:
             out.append(contact.label)
         else:
-            push = float(contact.force[component])
+            pushed = contact.force if contact.moment is None else contact.moment  # a stop's
+            push = float(pushed[component])
             out.append(contact.label + ("[+]" if push < 0 else "[-]" if push > 0 else "[0]"))
     return tuple(sorted(out))
 

@@ -124,8 +124,11 @@ def stacked_reactions(answers: StackedAnswers) -> StackedReactions:
     forces = contact_forces(answers)
     contact = np.zeros((count, len(names), 6))
     for k, constraint in enumerate(answers.prepared.geometry.contacts):
-        point = np.array(constraint.contact.point)
-        local = np.concatenate([forces[:, k], np.cross(point, forces[:, k])], axis=1)
+        point, lever = np.array(constraint.contact.point), constraint.contact.lever
+        if lever:  # a drive's backlash stop: a moment about the axis, no force
+            local = np.concatenate([np.zeros_like(forces[:, k]), lever * forces[:, k]], axis=1)
+        else:
+            local = np.concatenate([forces[:, k], np.cross(point, forces[:, k])], axis=1)
         contact[:, index[constraint.joint]] += placed(local, index[constraint.joint])
 
     # generator columns (rigid directions, drives) in each joint's frame, placed per case

@@ -87,7 +87,7 @@ class ExactProblem:
         gauge = ca.SX.sym("gauge", n, gauge_count)
         sigma = ca.SX.sym("sigma")
 
-        deltas, relative, offset = {}, {}, 0
+        deltas, relative, turns, offset = {}, {}, {}, 0
         for joint in mechanism.tree_joints:
             basis = tree_joint_basis(joint)
             k = basis.shape[1]
@@ -95,6 +95,7 @@ class ExactProblem:
             offset += k
             R_t, p_t = se3_exp(torsor)
             relative[joint.name] = (R_t, p_t)
+            turns[joint.name] = torsor[3:6]  # exp coordinates: R_t's rotation vector
             C = ca.DM(joint.rotation)
             deltas[joint.joint_id] = (ca.mtimes([C, R_t, C.T]), ca.mtimes(C, p_t))
         nominal = kin.joint_placements(q)
@@ -120,7 +121,7 @@ class ExactProblem:
         for j, (name, point) in enumerate(contacts):
             R, p = relative[name]
             r = ca.DM(point.point)
-            d = p + ca.mtimes(R, r) - r
+            d = point.lever * turns[name] if point.lever else p + ca.mtimes(R, r) - r
             selected = ca.vertcat(*[d[c] for c in point.components])
             if point.shape == "norm":
                 inequality.append(ca.sumsqr(selected) / bounds[j] ** 2)
@@ -312,7 +313,8 @@ def solve_exact_model(
     solve_started = time.perf_counter()
     # the exact answer is a second-order correction of the linear one, on the same contacts:
     # Newton on the exact KKT system of those contacts first, IPOPT only if it is not verified
-    at_upper, at_lower, start = _linear_start(linear, exact.shapes, sigma)
+    levers = [point.lever for _, point in exact.contacts]
+    at_upper, at_lower, start = _linear_start(linear, exact.shapes, sigma, levers)
     lam0 = np.zeros(exact.lower.size)
     lam0[: start.size] = start
     polished = None if from_nominal else polish_exact(exact, z0, lam0, params, at_upper, at_lower)
@@ -406,7 +408,7 @@ def solve_exact_model(
 
 
 def _linear_start(
-    linear: Equilibrium, shapes: list[str], sigma: float
+    linear: Equilibrium, shapes: list[str], sigma: float, levers: list[float]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""The linear solution's contact set and multipliers as the exact model's starting point.
 
@@ -416,14 +418,17 @@ def _linear_start(
     :math:`\|d\|^2 / c^2 \le 1` or :math:`-1 \le d / c \le 1` on the potential over sigma:
     :math:`\lambda = |f| c / (2 \sigma)` (ball, disc), :math:`\pm |f| c / \sigma` (slab).
 
+    A backlash stop (``levers``: its lever [m], 0 for a point) counts its moment over its lever.
+
     Returns:
         (at upper bound (m,), at lower bound (m,), multipliers (m,)).
     """
     upper, lower, multipliers = [], [], []
-    for contact, shape in zip(linear.contacts, shapes):
-        size = contact.force_magnitude
+    for contact, shape, lever in zip(linear.contacts, shapes, levers):
+        force = contact.force if contact.moment is None else contact.moment / lever
+        size = float(np.linalg.norm(force))
         loaded = contact.active and size > 0.0
-        minus_side = loaded and shape != "norm" and float(contact.force.sum()) > 0.0
+        minus_side = loaded and shape != "norm" and float(force.sum()) > 0.0
         upper.append(loaded and not minus_side)
         lower.append(minus_side)
         if shape == "norm":
@@ -672,8 +677,7 @@ def _assemble(
     images, gaps = [], []
     for j, (name, point) in enumerate(exact.contacts):
         M = relatives[name]
-        r = np.array(point.point)
-        d = (M[:, 3] + M[:, :3] @ r - r)[list(point.components)]
+        d = point.displacement(M[:, :3], M[:, 3])
         gap = point.bound - float(np.linalg.norm(d) if point.shape == "norm" else abs(d[0]))
         if gap > 1e-7 * point.bound and not polished_multipliers:
             lam[j] = 0.0  # interior-point leftovers on free points: no force there
@@ -695,6 +699,9 @@ def _assemble(
             local = np.array([-sigma * multiplier * np.sign(lam[j]) / point.bound])
         force = np.zeros(3)
         force[list(point.components)] = local
+        moment = None
+        if point.lever:  # a drive's backlash stop: its moment about the axis
+            moment, force = point.lever * force, np.zeros(3)
         active = gap <= 1e-7 * point.bound or (polished_multipliers and lam[j] != 0.0)
         contacts.append(
             Contact(
@@ -706,6 +713,7 @@ def _assemble(
                 bool(active),
                 M[:, :3] @ r + M[:, 3],  # the child's point where it is, parent clearance frame
                 sides[name].child.act(r),
+                moment,
             )
         )
     scaled_gradient, jacobian, energy = parts.gradient, parts.jacobian, parts.energy

@@ -147,10 +147,11 @@ def _contacts(prepared: PreparedGeometry, gaps, force_rows, multipliers, x) -> t
             c.contact.name,
             float(gap),
             float(bound),
-            force,
+            np.zeros(3) if c.contact.lever else force,
             bool(touching),
             np.array(c.contact.point),  # nominal place, in the joint's clearance frame
             centres[c.joint].act(np.array(c.contact.point)),
+            c.contact.lever * force if c.contact.lever else None,  # a stop's moment [N m]
         )
         for c, gap, bound, force, touching in zip(
             prepared.geometry.contacts, gaps, bounds, prepared.contact_forces(force_rows), active

@@ -178,7 +178,8 @@ def joint_reactions(equilibrium) -> JointReactions:
     }
     contact = {name: np.zeros(6) for name in mechanism.joints}
     for c in equilibrium.contacts:
-        local = pin.Force(c.force, np.cross(c.position, c.force))
+        moment = np.cross(c.position, c.force) if c.moment is None else c.moment
+        local = pin.Force(c.force, moment)
         contact[c.joint] += joint_frames[c.joint].act(local).vector
 
     columns, owners = [], []  # generator wrenches at the world origin, (joint, part) of each

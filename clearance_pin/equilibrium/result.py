@@ -57,6 +57,9 @@ class Contact:
             model: where it is at the solved pose.
         world_position: the same point in world coordinates [m], (3,) (nominal pose for the
             small-displacement model, solved pose for the exact one).
+        moment: a drive's backlash stop (``point == "backlash"`` of a revolute joint): the moment
+            [N m] the parent exerts on the child about the joint axis, same frame, (3,); its
+            ``force`` is zero. None for a point contact.
     """
 
     joint: str
@@ -67,6 +70,7 @@ class Contact:
     active: bool
     position: np.ndarray | None = None
     world_position: np.ndarray | None = None
+    moment: np.ndarray | None = None
 
     @property
     def label(self) -> str:

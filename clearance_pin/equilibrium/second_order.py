@@ -184,7 +184,8 @@ def estimate_difference(linear, loads, q, points) -> DifferenceEstimate:
             projector = np.eye(d_l.size) - np.outer(normal_l, normal_l)
             hessian += size * (s0.T @ projector @ s0) / reach
         else:
-            side = -np.sign(contact.force[point.components[0]])
+            pushed = contact.force if contact.moment is None else contact.moment  # a stop's
+            side = -np.sign(pushed[point.components[0]])
             row_l, row_e = side * s0[0], side * ex.jacobian[0]
             h_e = float(side * ex.d[0]) - point.bound
         loaded.append(j)
@@ -382,10 +383,13 @@ def _contact_terms(relative: pin.SE3, jacobian: np.ndarray, point) -> _ContactTe
     r""":math:`d = p + R r - r` of a contact point and its x-Jacobian
     :math:`R\,[I, -[r]_\times]\, J_\eta` (selected components)."""
     R, p = relative.rotation, relative.translation
+    selected = list(point.components)
+    if point.lever:  # a drive's backlash stop: lever x the rotation vector (first order in it)
+        turned = point.lever * jacobian[3:]
+        return _ContactTerms(point.displacement(R, p), turned[selected])
     r = np.asarray(point.point, dtype=float)
     d = p + R @ r - r
     full = R @ np.hstack([np.eye(3), -pin.skew(r)]) @ jacobian
-    selected = list(point.components)
     return _ContactTerms(d[selected], full[selected])
 
 
@@ -429,8 +433,7 @@ def boundary_errors(equilibrium) -> dict[str, float]:
     errors = {}
     for contact, point in zip(equilibrium.contacts, _contact_points(equilibrium)):
         placement = relative[contact.joint]
-        r = np.asarray(point.point)
-        d = (placement.translation + placement.rotation @ r - r)[list(point.components)]
+        d = point.displacement(placement.rotation, placement.translation)
         reach = float(np.linalg.norm(d)) if point.shape == "norm" else abs(float(d[0]))
         if contact.active:
             errors[contact.label] = abs(reach - point.bound)

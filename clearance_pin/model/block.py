@@ -24,14 +24,14 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Container, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from ..errors import LoadError, ModelError
-from .clearance import KINDS, Clearance, U, ideal
+from .clearance import BACKLASH_KINDS, KINDS, Clearance, U, ideal
 from .dimensions import Dimension, parse_dimensions
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
 from .length_check import Kind, Length, check_lengths
@@ -50,7 +50,7 @@ CLEARANCE_ATTRIBUTES = {
     "height": "height",
 }
 LENGTH_ATTRIBUTES = {*CLEARANCE_ATTRIBUTES, "diametral_clearance"}  # in the block's unit
-JOINT_ATTRIBUTES = {"name", "type", "driven", "q", "axis", *LENGTH_ATTRIBUTES}
+JOINT_ATTRIBUTES = {"name", "type", "driven", "backlash", "q", "axis", *LENGTH_ATTRIBUTES}
 DEFAULT_ATTRIBUTES = (JOINT_ATTRIBUTES - {"name", "q"}) | {"joint_type"}
 LOOP_ATTRIBUTES = {"name", "type", "frame_a", "frame_b", "axis", *LENGTH_ATTRIBUTES}
 # URDF joint types a <default> may name; "revolute" also covers continuous joints
@@ -411,6 +411,8 @@ class _BlockReader:
                 raise ModelError(
                     self.source, label, "a floating joint has no single motion to drive"
                 )
+            if element is not None and element.get("backlash") is not None:
+                clearance = self._with_backlash(element, label, clearance, driven, motion)
             if element is not None and element.get("q") is not None:
                 value = self._number(element, "q", length=motion == U)  # m or rad
                 if motion == U:
@@ -422,6 +424,32 @@ class _BlockReader:
                 set_nominal(self.source, label, model, joint_id, q, value)
             joints.append(TreeJoint(name, joint_id, clearance, rotation_x_to(axis), motion, driven))
         return tuple(joints), q
+
+    def _with_backlash(
+        self,
+        element: ET.Element,
+        label: str,
+        clearance: Clearance,
+        driven: bool,
+        motion: int | None,
+    ) -> Clearance:
+        """``clearance`` with the drive's lost motion ``backlash`` (rad for a revolute joint, a
+        length in the block's unit for a prismatic one)."""
+        if not driven:
+            raise ModelError(
+                self.source,
+                label,
+                "backlash is the lost motion of a drive, and this joint is not driven: add "
+                'driven="true" (or remove backlash)',
+            )
+        if motion is None or clearance.kind not in BACKLASH_KINDS:
+            raise ModelError(
+                self.source,
+                label,
+                f"backlash needs a joint that turns or slides, not a {clearance.kind} one",
+            )
+        value = self._number(element, "backlash", True, length=motion == U)  # rad or m
+        return replace(clearance, backlash=value)
 
     def loop_joints(self) -> tuple[LoopJoint, ...]:
         model = self.model
@@ -591,7 +619,7 @@ def _with_default(
     if entry is None:
         return labelled("joint", {"name": name, **inherited}, f"{default_label} for joint {name!r}")
     if entry.get("type") is not None and entry.get("type") != default.get("type"):
-        inherited = {k: v for k, v in inherited.items() if k == "driven"}
+        inherited = {k: v for k, v in inherited.items() if k in ("driven", "backlash")}
     if entry.get("radial_clearance") is not None or entry.get("diametral_clearance") is not None:
         inherited.pop("radial_clearance", None)
         inherited.pop("diametral_clearance", None)

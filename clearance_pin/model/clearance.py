@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
+import pinocchio as pin
 
 from ..errors import ArgumentError, NotFoundError
 
@@ -47,6 +48,8 @@ COMPONENT_MEANING = (
 )
 
 KINDS = ("spherical", "cylindrical", "revolute", "prismatic", "planar_revolute", "rigid", "free")
+BACKLASH_KINDS = ("cylindrical", "revolute", "prismatic", "planar_revolute")
+BACKLASH_LEVER = 0.01  # [m] the lever of a drive's lost motion on a joint without a length
 
 
 @dataclass(frozen=True)
@@ -60,6 +63,10 @@ class ContactPoint:
         shape: ``"norm"`` (ball or disc: Euclidean norm of the components <= bound) or
             ``"abs"`` (slab: |component| <= bound, one component).
         bound: the clearance that bounds it [m] (radial, axial, or a play).
+        lever: 0 for a point; > 0 [m] for a drive's lost motion (backlash): the set then bounds
+            the *rotation* about the axes ``components`` times ``lever``, the travel it gives at
+            that radius (:math:`|\\alpha| \\rho \\le b \\rho / 2`; a length, like every
+            bound, whatever the radius: the answer does not depend on it).
     """
 
     name: str
@@ -67,14 +74,29 @@ class ContactPoint:
     components: tuple[int, ...]
     shape: str
     bound: float
+    lever: float = 0.0
 
     def linear_rows(self) -> np.ndarray:
-        r"""Rows :math:`S [I, -[r]_\times]` mapping the torsor T (6,) to the bounded components.
+        r"""Rows :math:`S [I, -[r]_\times]` mapping the torsor T (6,) to the bounded components
+        (a lever's: :math:`\rho\, e_{3+k}`).
 
         Returns:
             array of shape (len(components), 6).
         """
+        if self.lever:
+            return _rotation_rows(self.lever, self.components)
         return _linear_rows(self.point, self.components)
+
+    def displacement(self, rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:
+        """The bounded components [m] under a finite relative motion (R, p) of the child in the
+        clearance frame: the point's :math:`p + R r - r`, or a lever's rotation vector
+        :math:`\\rho \\log(R)` (Pinocchio's log3)."""
+        if self.lever:
+            turned = np.asarray(pin.log3(rotation), dtype=float)
+            return np.asarray(self.lever * turned[list(self.components)])
+        r = np.asarray(self.point, dtype=float)
+        moved: np.ndarray = translation + rotation @ r - r
+        return moved[list(self.components)]
 
 
 @lru_cache(maxsize=4096)
@@ -92,6 +114,15 @@ def _linear_rows(point: tuple[float, float, float], components: tuple[int, ...])
     return rows
 
 
+@lru_cache(maxsize=64)
+def _rotation_rows(lever: float, components: tuple[int, ...]) -> np.ndarray:
+    rows = np.zeros((len(components), 6))
+    for row, component in enumerate(components):
+        rows[row, 3 + component] = lever
+    rows.setflags(write=False)
+    return rows
+
+
 @dataclass(frozen=True)
 class Clearance:
     """The clearance kind of one joint with its dimensions (SI).
@@ -105,6 +136,9 @@ class Clearance:
         play_z: prismatic play in z [m] (defaults to ``radial``).
         width: prismatic block width along y [m]; 0 leaves the roll free.
         height: prismatic block height along z [m]; 0 leaves the roll free.
+        backlash: a driven joint's total lost motion [rad for the revolute kinds, m for
+            prismatic]: the joint turns (slides) within +/- backlash / 2 of its command, a
+            contact ``"backlash"`` on its own motion (0: the drive holds it rigidly).
     """
 
     kind: str
@@ -114,12 +148,13 @@ class Clearance:
     play_z: float | None = None
     width: float = 0.0
     height: float = 0.0
+    backlash: float = 0.0
     contacts: tuple[ContactPoint, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise NotFoundError("clearance kind", self.kind, KINDS, where="Clearance(kind)")
-        for name in ("radial", "length", "axial", "width", "height"):
+        for name in ("radial", "length", "axial", "width", "height", "backlash"):
             _check_nonnegative(name, getattr(self, name))
         if self.play_z is not None:
             _check_nonnegative("play_z", self.play_z)
@@ -129,7 +164,25 @@ class Clearance:
                 "a journal or block length > 0 [m]",
                 self.length,
             )
-        object.__setattr__(self, "contacts", tuple(self._contact_points()))
+        if self.backlash and self.kind not in BACKLASH_KINDS:
+            raise ArgumentError(
+                f"Clearance({self.kind!r}, backlash)",
+                f"a joint that turns or slides ({', '.join(BACKLASH_KINDS)})",
+                self.backlash,
+            )
+        contacts = self._contact_points()
+        if self.backlash:
+            contacts.append(self._backlash_contact())
+        object.__setattr__(self, "contacts", tuple(contacts))
+
+    def _backlash_contact(self) -> ContactPoint:
+        """The drive's lost motion: a slab on the slide u (prismatic, [m]) or on the spin alpha
+        at the lever of half the journal's length (revolute kinds, :attr:`ContactPoint.lever`)."""
+        half = 0.5 * self.backlash
+        if self.kind == "prismatic":
+            return ContactPoint("backlash", (0.0, 0.0, 0.0), (0,), "abs", half)
+        lever = 0.5 * self.length if self.length > 0.0 else BACKLASH_LEVER
+        return ContactPoint("backlash", (0.0, 0.0, 0.0), (0,), "abs", half * lever, lever)
 
     @property
     def rigid_components(self) -> tuple[int, ...]:

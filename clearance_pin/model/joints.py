@@ -42,8 +42,9 @@ class TreeJoint:
 
     @property
     def locked_components(self) -> tuple[int, ...]:
-        """Free components that the drive locks."""
-        if self.driven and self.motion_component is not None:
+        """Free components that the drive locks (none with backlash: its contact bounds the
+        motion instead)."""
+        if self.driven and self.motion_component is not None and not self.clearance.backlash:
             return (self.motion_component,)
         return ()
 
