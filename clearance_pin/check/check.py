@@ -65,7 +65,9 @@ def check_equilibrium(
     joints: dict[str, JointCheck] = {}
     notes: list[str] = []
     for name, joint in mechanism.joints.items():
-        contacts = by_joint.get(name, [])
+        contacts = [c for c in by_joint.get(name, []) if c.point != "backlash"]
+        if joint.clearance.backlash:
+            notes.append(f"{name}: its drive's backlash (lost motion, no surface), not measured")
         rigid = [p.name for p in joint.clearance.contacts if p.bound == 0.0]
         if rigid and contacts:
             notes.append(

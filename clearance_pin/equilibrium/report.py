@@ -122,13 +122,21 @@ def contributors_table(equilibrium) -> list[str]:
 
 def bearing_loads_table(equilibrium) -> list[str]:
     """Per joint: radial and axial force [N], transverse moment and drive torque [N m] (the drive
-    force [N] of a driven prismatic joint), in the joint's clearance frame."""
+    force [N] of a driven prismatic joint; with backlash, what its stop holds), in the joint's
+    clearance frame."""
     reactions = {name: equilibrium.reaction(name, frame="joint") for name in equilibrium.torsors}
     largest = max((float(np.abs(r.wrench).max()) for r in reactions.values()), default=0.0)
     floor = 1e-9 * largest  # what the recovery of the reactions leaves at round-off
     rows = []
+    stops = {name: np.zeros(6) for name in reactions}  # drive backlash stops: the drive's load
+    for c in equilibrium.contacts:
+        if c.point == "backlash":
+            stops[c.joint] += np.concatenate(
+                [c.force, np.zeros(3) if c.moment is None else c.moment]
+            )
     for name, reaction in reactions.items():
-        force, moment, drive = reaction.force, reaction.moment, reaction.drive
+        stop = stops[name]
+        force, moment, drive = reaction.force - stop[:3], reaction.moment, reaction.drive + stop
         prismatic = getattr(equilibrium.mechanism.joints[name], "motion_component", None) == 0
         drive_text = ""
         if np.any(drive):
@@ -157,8 +165,11 @@ def bearing_loads_table(equilibrium) -> list[str]:
 def contacts_table(equilibrium) -> list[str]:
     """Every contact point: gap [um], force [N] and its direction (clearance frame), where it acts
     in the world [mm] (nominal pose for the linear model, solved pose for the exact one)."""
-    rows = []
+    rows, stops = [], []
     for c in equilibrium.contacts:
+        if c.moment is not None:  # a drive's backlash stop: a moment about the axis
+            stops.append(c)
+            continue
         magnitude = c.force_magnitude
         direction = c.force / magnitude if magnitude > 0 else c.force
         where = "" if c.world_position is None else vector(c.world_position, MM, 3)
@@ -173,10 +184,28 @@ def contacts_table(equilibrium) -> list[str]:
             ]
         )
     header = ["contact", "gap [um]", "force [N]", "direction", "at (world) [mm]", ""]
-    return [
+    lines = [
         "contacts: force of the parent on the child, joint's clearance frame",
         *columns(header, rows),
     ]
+    if stops:
+        clearances = {c.joint: equilibrium.mechanism.joints[c.joint].clearance for c in stops}
+        stop_rows = [
+            [
+                c.label,
+                number(clearances[c.joint].backlash / 2 * URAD, 1),
+                number(c.gap / c.clearance * clearances[c.joint].backlash / 2 * URAD, 1),
+                f"{c.moment[0]:.5g}",
+                "at its stop" if c.active else "",
+            ]
+            for c in stops
+        ]
+        header = ["drive", "b/2 [urad]", "left [urad]", "moment [N m]", ""]
+        lines += [
+            "drive backlash: the stop's moment on the child about the joint axis",
+            *columns(header, stop_rows),
+        ]
+    return lines
 
 
 def torsors_table(equilibrium) -> list[str]:

@@ -306,6 +306,7 @@ class Equilibrium:
                     "force_N": c.force.tolist(),
                     "position": _scaled_point(c.position, length),
                     "world_position": _scaled_point(c.world_position, length),
+                    **({} if c.moment is None else {"moment_N_m": c.moment.tolist()}),
                 }
                 for c in self.contacts
             ],
