@@ -181,3 +181,21 @@ def test_bad_backlash_is_named(attributes, message):
     <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
   <clearance_pin><joint name="j" type="revolute" radial_clearance="1e-5" length="0.02"
     {attributes}/></clearance_pin></robot>""")
+
+
+def test_the_report_and_the_coal_check_read_the_stop():
+    """The text table gives the drive torque the stop holds and a row for the stop; the coal
+    check (which has no surface for a lost motion) leaves it out and passes; JSON carries the
+    moment."""
+    answer = cantilever().solve(
+        [Torque("arm", [0.0, 0.0, 3.0]), PointForce("arm", [0.0, 0.0, -20.0], [ARM, 0, 0])],
+        gravity=False,
+        exact=True,
+    )
+    table = answer.table()
+    assert "drive backlash" in table and "-3 N m" in table  # 4 significant digits
+    report = answer.check()  # the exact pose, as the command line's --check
+    assert report.ok and any("backlash" in note for note in report.notes)
+    assert all(reading.point != "backlash" for reading in report.joints["drive"].points)
+    stop = next(c for c in answer.to_dict()["contacts"] if c["point"] == "backlash")
+    assert stop["moment_N_m"] == pytest.approx([-3.0, 0.0, 0.0], abs=1e-5)  # T cos(angle)
