@@ -33,6 +33,7 @@ from .errors import (
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
 from .kinematics.placements import placements_without_data
 from .model import plausibility
+from .model.couplings import coupled
 from .model.footprint import DATA_KEPT_UP_TO, check_fits, data_bytes
 from .model.frames import frame_id as find_frame
 from .model.joints import LoopJoint, TreeJoint
@@ -112,6 +113,7 @@ class Mechanism:
         dimensions: tuple = (),
         nominal_given: dict[int, float] | None = None,
         check_values: bool = True,
+        couplings: tuple = (),
     ):
         # a long tree is placed without Pinocchio's data (cubic in nv: 1.7 GB at 300 joints)
         self._without_data = not loop_joints and data_bytes(model.nv) > DATA_KEPT_UP_TO
@@ -125,6 +127,7 @@ class Mechanism:
         self.name = name or model.name
         self.collision_model = collision_model
         self.dimensions = tuple(dimensions)
+        self.couplings = tuple(couplings)  # followers set by their leaders (model.couplings)
         self._nominal_closed: np.ndarray | None = None
         self.link_frames = {
             f.name: i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY
@@ -215,6 +218,7 @@ class Mechanism:
             raise ClearancePinError(
                 f"configuration must be {self.model.nq} finite numbers, got shape {q.shape}"
             )
+        q = coupled(self.model, self.couplings, q)  # followers from their leaders
         if self._without_data:  # a long tree: nothing to close
             oMi, oMf = placements_without_data(self.model, q)
             return Configuration(q.copy(), oMi, oMf, {}, {})

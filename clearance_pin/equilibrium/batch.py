@@ -19,6 +19,7 @@ from concurrent.futures import Executor, ThreadPoolExecutor
 import numpy as np
 
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
+from ..model.couplings import coupled
 from ..model.frames import frame_id as find_frame
 from ..progress import Progress
 from .batch_answers import StackedAnswers, contact_forces, frame_displacements
@@ -298,8 +299,11 @@ class Cases(Sequence):
 def _cases(mechanism, loads, configurations) -> Cases:
     if loads is not None and not isinstance(loads, Sequence):
         loads = list(loads)
-    if configurations is not None:
-        configurations = [np.asarray(q, dtype=float) for q in configurations]
+    if configurations is not None:  # followers from their leaders (model.couplings)
+        configurations = [
+            coupled(mechanism.model, mechanism.couplings, np.asarray(q, dtype=float))
+            for q in configurations
+        ]
     if loads is None and configurations is None:
         raise ClearancePinError("solve_many needs load cases, configurations, or both")
     if loads is not None and configurations is not None and len(loads) != len(configurations):

@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import LoadError, ModelError
 from .clearance import BACKLASH_KINDS, KINDS, Clearance, U, ideal
+from .couplings import Coupling, coupled
 from .dimensions import Dimension, parse_dimensions
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
 from .length_check import Kind, Length, check_lengths
@@ -40,7 +41,8 @@ from .reference_sizes import Geometry, Shape
 from .xml_values import UNITS, label_of, labelled, number, vector
 
 BLOCK = "clearance_pin"
-ELEMENTS = ("joint", "default", "loop_joint", "force", "torque", "gravity", "dimension")
+ELEMENTS = ("joint", "default", "loop_joint", "lock", "force", "torque", "gravity", "dimension")
+LOCK_ATTRIBUTES = {"joint", "q"}
 CLEARANCE_ATTRIBUTES = {
     "radial_clearance": "radial",
     "length": "length",
@@ -85,11 +87,13 @@ class JointTable:
             in it; the fixed joints when their names are known (a URDF's ``fixed`` joints).
         origin: what the joints come from, in messages: ``"URDF"``, ``"MJCF"``, ``"model"``.
         supported: how to write a supported joint there (the end of the message refusing one).
+        couplings: followers set by their leaders (a URDF's ``<mimic>``, :mod:`.couplings`).
     """
 
     types: Mapping[str, str]
     origin: str
     supported: str = "use revolute, continuous, prismatic or floating"
+    couplings: tuple[Coupling, ...] = ()
 
 
 def joint_table(model: pin.Model, origin: str, supported: str | None = None) -> JointTable:
@@ -138,6 +142,7 @@ class BlockContents:
         loads: forces and torques.
         gravity: gravity when the block switches it on, else None.
         dimensions: toleranced dimensions.
+        couplings: followers held through their leaders' drives (:mod:`.couplings`).
     """
 
     tree_joints: tuple[TreeJoint, ...]
@@ -147,6 +152,7 @@ class BlockContents:
     loads: tuple[PointForce | Torque, ...]
     gravity: Gravity | None
     dimensions: tuple[Dimension, ...]
+    couplings: tuple[Coupling, ...] = ()
 
 
 def empty_block() -> ET.Element:
@@ -194,6 +200,7 @@ def read_block(
         loads=forces,
         gravity=gravity,
         dimensions=dimensions,
+        couplings=joints.couplings,
     )
 
 
@@ -238,6 +245,7 @@ class _BlockReader:
         self.model = model
         self.joints = joints
         self.nominal_given: dict[int, float] = {}  # joint id -> the file's q [rad or m]
+        self.locked: set[str] = set()  # joints a <lock> holds (no default applies to them)
         self.lengths: list[Length] = []  # every length read [m], judged against the geometry
         label = label_of(block) or f"<{BLOCK}>"
         _check_attributes(source, block, {"unit"}, label)
@@ -322,6 +330,30 @@ class _BlockReader:
                     f"'floating' (any play) or 'revolute' in the {origin}.",
                 )
             declared[name] = entry
+        for lock in self.block.findall("lock"):
+            label = _label(lock)
+            _check_attributes(self.source, lock, LOCK_ATTRIBUTES, label)
+            target = lock.get("joint") or ""
+            if not target or self.joints.types.get(target) in (None, "fixed"):
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"joint= must name a movable {origin} joint; they are: "
+                    + ", ".join(n for n, t in self.joints.types.items() if t != "fixed"),
+                )
+            if target in declared:
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"{target!r} is both locked and given a <joint> entry: a locked joint is "
+                    "rigid, held where it is; remove one of them",
+                )
+            # an ideal joint of its type, held by a drive at q (default: its nominal value)
+            attributes = {"name": target, "driven": "true"}
+            if lock.get("q") is not None:
+                attributes["q"] = str(lock.get("q"))
+            declared[target] = labelled("joint", attributes, f"<lock joint='{target}'>")
+            self.locked.add(target)
         return declared
 
     def _defaults(self) -> dict[str, ET.Element]:
@@ -367,13 +399,14 @@ class _BlockReader:
         defaults = self._defaults()
         q = drawn_configuration(model)
         joints = []
+        followers = {c.follower for c in self.joints.couplings}
         for joint_id in range(1, model.njoints):
             name = model.names[joint_id]
             joint_type = self.joints.types.get(name)
             pin_joint = model.joints[joint_id]
             shortname = pin_joint.shortname()
-            default = defaults.get(joint_type or "")
-            if default is None and joint_type == "continuous":
+            default = None if name in self.locked else defaults.get(joint_type or "")
+            if default is None and joint_type == "continuous" and name not in self.locked:
                 default = defaults.get("revolute")
             element = _with_default(name, declared.get(name), default)
             label = _label(element) if element is not None else f"<joint name='{name}'>"
@@ -406,7 +439,8 @@ class _BlockReader:
                     f"a {clearance.kind} clearance does not allow "
                     f"the motion of the {self.joints.origin} {joint_type} joint",
                 )
-            driven = _boolean(self.source, element, "driven", False)
+            # a follower is held through its leader's drive (:mod:`.couplings`)
+            driven = _boolean(self.source, element, "driven", False) or name in followers
             if driven and motion is None:
                 raise ModelError(
                     self.source, label, "a floating joint has no single motion to drive"
@@ -423,7 +457,42 @@ class _BlockReader:
                 self.nominal_given[joint_id] = value
                 set_nominal(self.source, label, model, joint_id, q, value)
             joints.append(TreeJoint(name, joint_id, clearance, rotation_x_to(axis), motion, driven))
-        return tuple(joints), q
+        return tuple(joints), self._coupled(tuple(joints), q)
+
+    def _coupled(self, joints: tuple[TreeJoint, ...], q: np.ndarray) -> np.ndarray:
+        """``q`` with each follower at its leader's value times the multiplier plus the offset;
+        a leader that is not driven, or a follower given another value, is refused."""
+        couplings = self.joints.couplings
+        by_name = {joint.name: joint for joint in joints}
+        for coupling in couplings:
+            label = f"<joint name='{coupling.follower}'> <mimic joint='{coupling.leader}'>"
+            for role in (coupling.leader, coupling.follower):
+                if role not in by_name or by_name[role].motion_component is None:
+                    raise ModelError(
+                        self.source, label, f"{role!r} is no revolute or prismatic joint"
+                    )
+            if not by_name[coupling.leader].driven:
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"the leader {coupling.leader!r} is not driven: a follower is held through "
+                    f'its leader\'s drive; drive it (driven="true") or lock it, or remove the '
+                    "<mimic> (an independent joint); a passive leader's coupling is not modelled",
+                )
+        placed = coupled(self.model, couplings, q)
+        for coupling in couplings:
+            follower = self.model.getJointId(coupling.follower)
+            given = self.nominal_given.get(follower)
+            value = placed[self.model.joints[follower].idx_q]
+            if given is not None and not math.isclose(given, value, rel_tol=1e-9, abs_tol=1e-12):
+                raise ModelError(
+                    self.source,
+                    f"<joint name='{coupling.follower}'>",
+                    f"q={given:g} differs from its <mimic> of {coupling.leader!r}: "
+                    f"{coupling.multiplier:g} x q + {coupling.offset:g} = {value:g}; "
+                    "give the leader's q only",
+                )
+        return placed
 
     def _with_backlash(
         self,

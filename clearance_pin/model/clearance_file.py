@@ -77,6 +77,7 @@ TOML_TABLES: dict[str, tuple[str, str | None]] = {
     "joints": ("joint", "name"),
     "loop_joints": ("loop_joint", "name"),
     "dimensions": ("dimension", "name"),
+    "locks": ("lock", "joint"),
     "forces": ("force", None),
     "torques": ("torque", None),
     "gravity": ("gravity", None),

@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from .block import BlockContents
+from .couplings import Coupling
 from .dimensions import Dimension
 from .joints import LoopJoint, TreeJoint
 from .loads import Gravity, PointForce, Torque
@@ -39,6 +40,7 @@ class MechanismDescription:
     collision_model: CollisionSource
     dimensions: tuple[Dimension, ...]
     nominal_given: dict[int, float] | None
+    couplings: tuple[Coupling, ...] = ()
 
     def arguments(self) -> dict[str, Any]:
         """Keyword arguments of the Mechanism constructor."""
@@ -65,6 +67,7 @@ def describe(
         collision_model=collision_model,
         dimensions=contents.dimensions,
         nominal_given=contents.nominal_given,
+        couplings=contents.couplings,
     )
 
 

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 from ..errors import ArgumentError, ModelError
 from .block import BLOCK, ClearanceBlock, JointTable, empty_block, read_block
 from .clearance_file import ClearanceSource, clearance_block
+from .couplings import urdf_couplings
 from .description import MechanismDescription, combined_source, describe
 from .mjcf import read_mjcf
 from .reference_sizes import urdf_shapes
@@ -109,7 +110,8 @@ def _read(
         )
     block = beside or ClearanceBlock(own if own is not None else empty_block(), source)
     types = {name: str(element.get("type")) for name, element in reader.urdf_joints.items()}
-    table = JointTable(types, "URDF")
+    couplings = urdf_couplings(source, reader.urdf_joints.values())
+    table = JointTable(types, "URDF", couplings=couplings)
     shapes = urdf_shapes(reader.root)
     contents = read_block(block.source, block.element, model, table, block.kind, shapes)
     collision = CollisionGeometry(text, source, directories) if reader.has_collision() else None
@@ -256,16 +258,6 @@ class _Reader:
                     raise ModelError(
                         self.source, label, f"<{tag} link='{link}'> is not a link of the URDF"
                     )
-            mimic = element.find("mimic")
-            if mimic is not None:
-                raise ModelError(
-                    self.source,
-                    label,
-                    f"a mimic joint (it follows joint {mimic.get('joint')!r}): clearance_pin "
-                    "does not model mimic couplings, and Pinocchio would make it an independent "
-                    "joint. Remove the <mimic> element (an independent joint: drive it or give it "
-                    "a clearance) or make the joint fixed.",
-                )
             origin = element.find("origin")
             for attribute in ("xyz", "rpy"):
                 if origin is not None and origin.get(attribute) is not None:

@@ -1,0 +1,72 @@
+r"""Coupled joints: a follower driven through its leader (a URDF ``<mimic>``).
+
+A follower's value is :math:`q_f = m\, q_l + o` (multiplier m, offset o, URDF defaults 1 and 0), as
+a gear pair, a rack and pinion or a tendon sets it. clearance_pin holds a follower through its
+leader's drive: the leader must be driven, and the follower is then held at :math:`m q_l + o` as a
+driven joint (its own bearing play, if any, still acts; a ``backlash`` on the follower is the
+coupling's deadband). The torque the coupling holds on the follower is its reported drive torque;
+the leader's motor carries :math:`m` times it besides its own (virtual work of the coupling:
+:math:`\tau_l\, \delta q_l + \tau_f\, m\, \delta q_l`).
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import ModelError
+
+
+@dataclass(frozen=True)
+class Coupling:
+    """One follower joint set by its leader: ``q[follower] = multiplier * q[leader] + offset``
+    [rad or m]."""
+
+    follower: str
+    leader: str
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+
+def urdf_couplings(source: str, joints: Iterable[ET.Element]) -> tuple[Coupling, ...]:
+    """The ``<mimic joint= multiplier= offset=>`` elements of a URDF's joints."""
+    couplings = []
+    for element in joints:
+        mimic = element.find("mimic")
+        if mimic is None:
+            continue
+        label = f"<joint name='{element.get('name')}'> <mimic>"
+        leader = mimic.get("joint")
+        if not leader:
+            raise ModelError(source, label, "names no joint to follow (joint='...')")
+        values = []
+        for attribute, default in (("multiplier", 1.0), ("offset", 0.0)):
+            text = mimic.get(attribute)
+            try:
+                value = default if text is None else float(text)
+            except ValueError:
+                raise ModelError(source, label, f"{attribute}={text!r} is not a number") from None
+            if not np.isfinite(value):
+                raise ModelError(source, label, f"{attribute}={text!r} is not finite")
+            values.append(value)
+        couplings.append(Coupling(str(element.get("name")), leader, *values))
+    return tuple(couplings)
+
+
+def coupled(model: pin.Model, couplings: tuple[Coupling, ...], q: np.ndarray) -> np.ndarray:
+    """``q`` with every follower set from its leader (a copy; ``q`` itself when none)."""
+    if not couplings:
+        return q
+    q = np.array(q, dtype=float)
+    for coupling in couplings:
+        leader = model.joints[model.getJointId(coupling.leader)].idx_q
+        follower = model.joints[model.getJointId(coupling.follower)].idx_q
+        q[follower] = coupling.multiplier * q[leader] + coupling.offset
+    return q
+
+
+__all__ = ["Coupling", "coupled", "urdf_couplings"]

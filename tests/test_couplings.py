@@ -1,0 +1,127 @@
+"""Coupled joints (issue 23 item 2): a URDF <mimic> read as shipped, the follower held through
+its driven leader; <lock> holds a joint the study leaves out. References by hand (statics of a
+lever) and Pinocchio's own kinematics, no solver code.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import clearance_pin as cp
+
+MULTIPLIER, OFFSET = -0.5, 0.1  # follower = -0.5 x leader + 0.1 [rad]
+LEVER, FORCE = 0.2, 30.0  # [m], [N]
+
+
+def gear_pair(leader_q: float = 0.4, leader: str = 'driven="true"', extra: str = "") -> str:
+    """Two shafts about z, 0.3 m apart; the follower mimics the leader and carries a lever
+    along its x axis with a force along y at its tip."""
+    return f"""<?xml version="1.0"?>
+<robot name="gears">
+  <link name="base"/>
+  <link name="pinion"/>
+  <link name="wheel"/>
+  <joint name="leader" type="revolute"><parent link="base"/><child link="pinion"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
+  <joint name="follower" type="revolute"><parent link="base"/><child link="wheel"/>
+    <origin xyz="0.3 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="10" velocity="1"/>
+    <mimic joint="leader" multiplier="{MULTIPLIER}" offset="{OFFSET}"/></joint>
+  <clearance_pin>
+    <joint name="leader" type="revolute" radial_clearance="1e-5" length="0.02" {leader}
+           q="{leader_q}"/>
+    <joint name="follower" type="revolute" radial_clearance="1e-5" length="0.02" {extra}/>
+    <force link="wheel" point="{LEVER} 0 0" value="0 {FORCE} 0"/>
+  </clearance_pin>
+</robot>"""
+
+
+def test_the_follower_is_held_through_its_leader():
+    """q_follower = m q_leader + o at the nominal pose, after configure and along solve_many;
+    the coupling holds the follower against the lever's moment -F r (by hand: a force F along
+    the follower's y at r along its x makes F r about z; the parent holds its opposite)."""
+    gears = cp.loads(gear_pair())
+    model = gears.model
+    leader = model.joints[model.getJointId("leader")].idx_q
+    follower = model.joints[model.getJointId("follower")].idx_q
+    assert gears.q_nominal[follower] == pytest.approx(MULTIPLIER * 0.4 + OFFSET, abs=1e-15)
+    q = gears.q_nominal.copy()
+    q[leader] = 1.1
+    assert gears.configure(q).q[follower] == pytest.approx(MULTIPLIER * 1.1 + OFFSET, abs=1e-15)
+    answer = gears.solve(gravity=False)
+    assert answer.ok
+    angle = MULTIPLIER * 0.4 + OFFSET  # the force is along world y: its lever arm turns with q
+    moment = LEVER * FORCE * np.cos(angle)
+    drive = answer.reaction("follower").drive
+    assert drive[3] == pytest.approx(-moment, rel=1e-12)
+    assert answer.reaction("leader").drive[3] == pytest.approx(0.0, abs=1e-12)
+    # the leader's motor carries m times the coupling's torque (module docstring)
+    turns = [q.copy() for q in np.tile(gears.q_nominal, (5, 1))]
+    for k, pose in enumerate(turns):
+        pose[leader] = 0.2 * k
+    batch = gears.solve_many(configurations=turns, gravity=False)
+    for k in range(5):
+        placed = batch[k].configuration.q
+        assert placed[follower] == pytest.approx(MULTIPLIER * 0.2 * k + OFFSET, abs=1e-15)
+
+
+def test_a_coupling_deadband_is_the_followers_backlash():
+    """backlash on the follower: the coupling's deadband; the lever's moment turns the follower
+    by +b/2 (its moment about z is positive)."""
+    gears = cp.loads(gear_pair(extra='backlash="0.004"'))
+    answer = gears.solve(gravity=False)
+    assert answer.ok and answer.torsor("follower")[3] == pytest.approx(0.002, abs=1e-12)
+
+
+def test_a_passive_leader_and_a_contradicting_q_are_refused():
+    with pytest.raises(cp.ModelError, match="leader 'leader' is not driven"):
+        cp.loads(gear_pair(leader=""))
+    with pytest.raises(cp.ModelError, match="differs from its <mimic>"):
+        cp.loads(gear_pair(extra='q="0.7"'))
+
+
+def test_the_panda_as_shipped_with_its_fingers_locked(tmp_path):
+    """The Panda URDF of example-robot-data unmodified (its second finger mimics the first),
+    a TOML clearance file beside it locking the first finger: it loads, both fingers stay where
+    the lock and the mimic put them, and every body balances (statics from the reported
+    reactions, tests/corpus_statics.py)."""
+    corpus = pytest.importorskip("test_corpus_robots")
+    statics = pytest.importorskip("corpus_statics")
+    urdf = corpus.vendor_file(corpus.ROBOTS["panda"][0])
+    play = tmp_path / "panda_play.toml"
+    play.write_text(
+        """unit = "mm"
+[defaults.revolute]
+type = "revolute"
+radial_clearance = 0.010
+axial_clearance = 0.005
+length = 30
+driven = true
+[locks.panda_finger_joint1]
+q = 20
+[[forces]]
+link = "panda_hand_tcp"
+point = [0, 0, 0]
+value = [10.0, -5.0, -20.0]
+"""
+    )
+    panda = cp.load(str(urdf), clearances=str(play))
+    model = panda.model
+    for finger in ("panda_finger_joint1", "panda_finger_joint2"):
+        assert panda.q_nominal[model.joints[model.getJointId(finger)].idx_q] == 0.02
+    answer = panda.solve(gravity=True)
+    assert answer.ok
+    assert statics.reaction_residual(answer, answer.loads) <= 1e-10
+
+
+def test_bad_locks_are_named(tmp_path):
+    model = gear_pair().replace(
+        '<joint name="follower" type="revolute" radial_clearance="1e-5" length="0.02" />',
+        '<lock joint="nowhere"/>',
+    )
+    with pytest.raises(cp.ModelError, match="joint= must name a movable"):
+        cp.loads(model)
+    both = gear_pair().replace("</clearance_pin>", '<lock joint="leader"/></clearance_pin>')
+    with pytest.raises(cp.ModelError, match="both locked and given"):
+        cp.loads(both)
