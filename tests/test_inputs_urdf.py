@@ -2,7 +2,7 @@
 
 - A file in ISO-8859-1 with its declaration loads (it was a UnicodeDecodeError traceback) and
   solves exactly as its UTF-8 twin; bytes that do not match the declared encoding are a ModelError.
-- A mimic joint is refused with a ModelError naming it (Pinocchio would make it independent).
+- A mimic joint follows its driven leader (a passive leader is a ModelError naming both).
 - Collision meshes are read only when a check needs them: a URDF whose mesh is missing loads and
   solves, and check() raises a ModelError naming the link and the mesh file and saying how to
   point at it; package_dirs, ROS_PACKAGE_PATH and --package-dir find it.
@@ -89,13 +89,19 @@ MIMIC_URDF = """<robot name="gripper">
 </robot>"""
 
 
-def test_mimic_joint_is_refused():
-    """A <mimic> joint is a ModelError naming the joint and its leader, never ignored."""
+def test_a_mimic_joint_follows_its_driven_leader():
+    """A <mimic> joint is read (issue 23): the follower is held at its driven leader's value;
+    with a passive leader it is a ModelError naming both, never ignored."""
+    gripper = cp.loads(MIMIC_URDF, source="gripper.urdf")
+    model = gripper.model
+    right = model.joints[model.getJointId("right_finger")].idx_q
+    assert gripper.q_nominal[right] == 0.01 and gripper.joint("right_finger").driven
+    passive = MIMIC_URDF.replace(' driven="true"', "")
     with pytest.raises(cp.ModelError) as caught:
-        cp.loads(MIMIC_URDF, source="gripper.urdf")
+        cp.loads(passive, source="gripper.urdf")
     error = caught.value
-    assert error.element == "<joint name='right_finger'>"
-    assert "mimic" in error.problem and "'left_finger'" in error.problem
+    assert error.element == "<joint name='right_finger'> <mimic joint='left_finger'>"
+    assert "not driven" in error.problem
 
 
 # a closed tetrahedron, 1 mm, ASCII STL
