@@ -125,3 +125,52 @@ def test_bad_locks_are_named(tmp_path):
     both = gear_pair().replace("</clearance_pin>", '<lock joint="leader"/></clearance_pin>')
     with pytest.raises(cp.ModelError, match="both locked and given"):
         cp.loads(both)
+
+
+MJCF_GEARS = """<mujoco model="gears">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="base">
+      <body name="pinion">
+        <joint name="leader" type="hinge" axis="0 0 1" range="-3 3" ref="0.2"/>
+        <geom type="cylinder" size="0.02 0.01" mass="0.1"/>
+      </body>
+      <body name="wheel" pos="0.3 0 0">
+        <joint name="follower" type="hinge" axis="0 0 1" range="-3 3" ref="0.3"/>
+        <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.01" mass="0.2"/>
+      </body>
+    </body>
+  </worldbody>
+  <equality>
+    <joint joint1="follower" joint2="leader" polycoef="0.1 -0.5 0 0 0"/>
+  </equality>
+</mujoco>"""
+MJCF_PLAY = {
+    "leader": {"type": "revolute", "radial_clearance": 1e-5, "length": 0.02, "driven": True,
+               "q": 0.7},
+    "follower": {"type": "revolute", "radial_clearance": 1e-5, "length": 0.02},
+}  # fmt: skip
+
+
+def test_an_mjcf_joint_equality_is_read_as_mujoco_means_it(tmp_path):
+    """<equality><joint polycoef> about MuJoCo's reference pose (each joint at its ref): the
+    follower is placed where MuJoCo's own constraint residual is zero (MuJoCo's reading, not the
+    library's); a coupling beyond linear is refused."""
+    mujoco = pytest.importorskip("mujoco")
+    path = tmp_path / "gears.xml"
+    path.write_text(MJCF_GEARS)
+    gears = cp.load(str(path), clearances=MJCF_PLAY)
+    model = gears.model
+    q = gears.q_nominal
+    leader = q[model.joints[model.getJointId("leader")].idx_q]
+    follower = q[model.joints[model.getJointId("follower")].idx_q]
+    reference = mujoco.MjModel.from_xml_string(MJCF_GEARS)
+    data = mujoco.MjData(reference)
+    data.qpos[:] = [leader, follower]  # MuJoCo's qpos is Pinocchio's q here (hinges)
+    mujoco.mj_forward(reference, data)
+    assert leader == 0.7 and abs(data.efc_pos[: data.ne][0]) <= 1e-15
+    assert gears.solve(gravity=True).ok
+    cubic = MJCF_GEARS.replace('polycoef="0.1 -0.5 0 0 0"', 'polycoef="0.1 -0.5 0.2 0 0"')
+    path.write_text(cubic)
+    with pytest.raises(cp.ModelError, match="beyond linear"):
+        cp.load(str(path), clearances=MJCF_PLAY)

@@ -200,7 +200,7 @@ def read_block(
         loads=forces,
         gravity=gravity,
         dimensions=dimensions,
-        couplings=joints.couplings,
+        couplings=reader.couplings,
     )
 
 
@@ -246,6 +246,7 @@ class _BlockReader:
         self.joints = joints
         self.nominal_given: dict[int, float] = {}  # joint id -> the file's q [rad or m]
         self.locked: set[str] = set()  # joints a <lock> holds (no default applies to them)
+        self.couplings: tuple[Coupling, ...] = ()  # on Pinocchio's q (tree_joints sets them)
         self.lengths: list[Length] = []  # every length read [m], judged against the geometry
         label = label_of(block) or f"<{BLOCK}>"
         _check_attributes(source, block, {"unit"}, label)
@@ -457,12 +458,15 @@ class _BlockReader:
                 self.nominal_given[joint_id] = value
                 set_nominal(self.source, label, model, joint_id, q, value)
             joints.append(TreeJoint(name, joint_id, clearance, rotation_x_to(axis), motion, driven))
+        self.couplings = tuple(
+            c.absolute(model, drawn_configuration(model)) for c in self.joints.couplings
+        )
         return tuple(joints), self._coupled(tuple(joints), q)
 
     def _coupled(self, joints: tuple[TreeJoint, ...], q: np.ndarray) -> np.ndarray:
         """``q`` with each follower at its leader's value times the multiplier plus the offset;
         a leader that is not driven, or a follower given another value, is refused."""
-        couplings = self.joints.couplings
+        couplings = self.couplings
         by_name = {joint.name: joint for joint in joints}
         for coupling in couplings:
             label = f"<joint name='{coupling.follower}'> <mimic joint='{coupling.leader}'>"

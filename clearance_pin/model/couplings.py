@@ -30,6 +30,17 @@ class Coupling:
     leader: str
     multiplier: float = 1.0
     offset: float = 0.0
+    from_drawn: bool = False  # MJCF: q_f - q0_f = offset + multiplier (q_l - q0_l), q0 = qpos0
+
+    def absolute(self, model: pin.Model, drawn: np.ndarray) -> Coupling:
+        """The coupling on Pinocchio's q itself: an MJCF one (``from_drawn``) holds about the
+        drawn configuration ``drawn`` (MuJoCo's qpos0, each joint at its ref)."""
+        if not self.from_drawn:
+            return self
+        leader = drawn[model.joints[model.getJointId(self.leader)].idx_q]
+        follower = drawn[model.joints[model.getJointId(self.follower)].idx_q]
+        offset = self.offset + follower - self.multiplier * leader
+        return Coupling(self.follower, self.leader, self.multiplier, float(offset))
 
 
 def urdf_couplings(source: str, joints: Iterable[ET.Element]) -> tuple[Coupling, ...]:
@@ -53,7 +64,7 @@ def urdf_couplings(source: str, joints: Iterable[ET.Element]) -> tuple[Coupling,
             if not np.isfinite(value):
                 raise ModelError(source, label, f"{attribute}={text!r} is not finite")
             values.append(value)
-        couplings.append(Coupling(str(element.get("name")), leader, *values))
+        couplings.append(Coupling(str(element.get("name")), leader, values[0], values[1]))
     return tuple(couplings)
 
 

@@ -13,9 +13,11 @@ MJCF bodies; loop joints name any frames of the model (bodies or sites).
 
 Not read, and refused with a :class:`~clearance_pin.errors.ModelError` rather than dropped:
 
-- ``<equality>`` constraints (closed loops welded or connected by MuJoCo): cut the loop in the
-  clearance file instead, as a ``<loop_joint>`` between two frames (sites), which also gives the
-  cut joint its play;
+- ``<equality>`` constraints other than a ``<joint>`` coupling (closed loops welded or connected
+  by MuJoCo): cut the loop in the clearance file instead, as a ``<loop_joint>`` between two frames
+  (sites), which also gives the cut joint its play. An ``<equality><joint joint1 joint2
+  polycoef>`` is read as a coupling (:mod:`~.couplings`): joint1 = polycoef[0] + polycoef[1] x
+  joint2, its higher coefficients zero;
 - a ``<clearance_pin>`` element inside the MJCF file (MuJoCo refuses unknown elements): write it
   as a clearance file;
 - a body with several joints (Pinocchio makes them one composite joint) and ``ball`` joints (a
@@ -31,7 +33,7 @@ from __future__ import annotations
 import os
 import tempfile
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -46,6 +48,7 @@ from .block import (
     joint_table,
     read_block,
 )
+from .couplings import Coupling
 from .description import MechanismDescription, combined_source, describe
 from .mjcf_orientation import matrix_quat
 from .mjcf_placements import FilePlacements, read_placements
@@ -89,7 +92,7 @@ def read_mjcf(
     _add_missing_sites(model, placements)
     check_placements(model, placements, source)
     block = beside or ClearanceBlock(empty_block(), source)
-    table = joint_table(model, "MJCF", SUPPORTED)
+    table = replace(joint_table(model, "MJCF", SUPPORTED), couplings=mjcf_couplings(root, source))
     shapes = mjcf_shapes(placements.tree)
     contents = read_block(block.source, block.element, model, table, block.kind, shapes)
     geometry = MjcfGeometry(rewritten, source)
@@ -102,9 +105,54 @@ def read_mjcf(
     )
 
 
+def mjcf_couplings(root: ET.Element, source: str) -> tuple[Coupling, ...]:
+    """The ``<equality><joint joint1="F" joint2="L" polycoef="c0 c1 0 0 0"/>`` couplings:
+    F - F0 = c0 + c1 (L - L0) about MuJoCo's reference configuration qpos0 (each joint at its
+    ``ref``; checked against MuJoCo's own constraint residual, tests/test_couplings.py); default
+    polycoef 0 1 0 0 0; an inactive one (``active="false"``) is left out."""
+    couplings = []
+    for equality in root.iter("equality"):
+        for constraint in equality.findall("joint"):
+            if constraint.get("active", "true") == "false":
+                continue
+            element = f"<equality> <joint joint1='{constraint.get('joint1')}'>"
+            follower, leader = constraint.get("joint1"), constraint.get("joint2")
+            if not follower:
+                raise ModelError(source, element, "names no joint1")
+            text = constraint.get("polycoef", "0 1 0 0 0")
+            try:
+                coefficients = [float(v) for v in text.split()]
+            except ValueError:
+                raise ModelError(source, element, f"polycoef={text!r} is not numbers") from None
+            coefficients += [0.0] * (5 - len(coefficients))
+            if len(coefficients) != 5 or not np.all(np.isfinite(coefficients)):
+                raise ModelError(source, element, f"polycoef={text!r}: 5 finite numbers")
+            if any(coefficients[2:]):
+                raise ModelError(
+                    source,
+                    element,
+                    f"polycoef={text!r}: a coupling beyond linear (its coefficients after the "
+                    "second are not zero) is not modelled",
+                )
+            if not leader:
+                raise ModelError(
+                    source,
+                    element,
+                    "fixes joint1 at polycoef[0] without a joint2: write "
+                    f'<lock joint="{follower}" q="{coefficients[0]:g}"/> in the clearance file '
+                    "and remove the constraint",
+                )
+            couplings.append(
+                Coupling(follower, leader, coefficients[1], coefficients[0], from_drawn=True)
+            )
+    return tuple(couplings)
+
+
 def _refuse_unread(root: ET.Element, source: str) -> None:
     for equality in root.iter("equality"):
         for constraint in equality:
+            if constraint.tag == "joint":
+                continue  # a coupling (mjcf_couplings)
             name = constraint.get("name")
             element = f"<equality> <{constraint.tag}" + (f" name='{name}'>" if name else ">")
             raise ModelError(
