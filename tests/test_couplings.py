@@ -6,6 +6,7 @@ lever) and Pinocchio's own kinematics, no solver code.
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import clearance_pin as cp
@@ -174,3 +175,18 @@ def test_an_mjcf_joint_equality_is_read_as_mujoco_means_it(tmp_path):
     path.write_text(cubic)
     with pytest.raises(cp.ModelError, match="beyond linear"):
         cp.load(str(path), clearances=MJCF_PLAY)
+
+
+def test_a_pinocchio_mimic_model_says_what_to_do():
+    """from_model on a pin.Model built with mimic=True: a ModelError saying how to read it."""
+    gripper = """<robot name="gripper">
+  <link name="palm"/><link name="left"/><link name="right"/>
+  <joint name="left_finger" type="prismatic"><parent link="palm"/><child link="left"/>
+    <axis xyz="0 1 0"/><limit lower="0" upper="0.04" effort="20" velocity="0.2"/></joint>
+  <joint name="right_finger" type="prismatic"><parent link="palm"/><child link="right"/>
+    <axis xyz="0 -1 0"/><limit lower="0" upper="0.04" effort="20" velocity="0.2"/>
+    <mimic joint="left_finger"/></joint>
+</robot>"""
+    model = pin.buildModelFromXML(gripper, mimic=True)
+    with pytest.raises(cp.ModelError, match=r"clearance_pin\.load"):
+        cp.from_model(model, clearances={"left_finger": {"driven": True, "q": 0.01}})

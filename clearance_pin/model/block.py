@@ -411,6 +411,14 @@ class _BlockReader:
                 default = defaults.get("revolute")
             element = _with_default(name, declared.get(name), default)
             label = _label(element) if element is not None else f"<joint name='{name}'>"
+            if shortname == "JointModelMimic":
+                raise ModelError(
+                    self.source,
+                    label,
+                    "a Pinocchio mimic joint (a model built with mimic=True) has no motion of its "
+                    "own to hold play: load the URDF file with clearance_pin.load, which reads "
+                    "its <mimic> as a coupling, or build the model with mimic=False (the default)",
+                )
             if shortname not in MOTION_COMPONENT_BY_PIN_JOINT:
                 raise ModelError(
                     self.source,
