@@ -52,6 +52,7 @@ from .commands import (
     model_options,
 )
 from .errors import ClearancePinError, SolverError, UnboundedLoadError
+from .json_documents import error_document, solve_document
 
 
 def _solve(args: argparse.Namespace) -> int:
@@ -71,13 +72,7 @@ def _solve(args: argparse.Namespace) -> int:
             checked = mechanism.solve(exact=True, gravity=gravity, outputs=outputs)
         report = checked.check()
     if args.json:
-        document = {"model": str(args.model), "equilibrium": equilibrium.to_dict()}
-        if equilibrium.linear is not None:
-            document["linear"] = equilibrium.linear.to_dict()
-        if report is not None:
-            document["check"] = report.to_dict()
-        if departure is not None:
-            document["linear_departure"] = departure.to_dict()
+        document = solve_document(str(args.model), equilibrium, report, departure)
         print(json.dumps(document, indent=2))
     else:
         print(f"{mechanism!r} from {args.model}")
@@ -193,18 +188,30 @@ def main(argv: list[str] | None = None) -> int:
         status: int = args.run(args)
         return status
     except UnboundedLoadError as exc:
-        _say(args, exc)
-        return NO_EQUILIBRIUM
+        return _failed(args, exc, str(exc), NO_EQUILIBRIUM)
     except SolverError as exc:
-        _say(args, f"the solver did not reach a verified answer: {exc}")
-        return SOLVER_FAILED
+        message = f"the solver did not reach a verified answer: {exc}"
+        return _failed(args, exc, message, SOLVER_FAILED)
     except ClearancePinError as exc:
-        _say(args, exc)
-        return BAD_INPUT
+        return _failed(args, exc, str(exc), BAD_INPUT)
     except OSError as exc:  # a file written at the end (a full disk, a folder removed meanwhile)
         where = f"{exc.filename}: " if exc.filename else ""
-        _say(args, f"{where}cannot be read or written: {exc.strerror or exc}")
-        return BAD_INPUT
+        message = f"{where}cannot be read or written: {exc.strerror or exc}"
+        return _failed(args, exc, message, BAD_INPUT)
+
+
+def _failed(args: argparse.Namespace, error: Exception, message: str, status: int) -> int:
+    """Say the failure (one line on standard error; with ``solve --json``, also the ``error``
+    document on standard output) and return its exit status."""
+    _say(args, message)
+    if getattr(args, "json", None) is True:  # solve's --json prints its document on stdout
+        model = getattr(args, "model", None)
+        document = error_document(
+            str(args.command), None if model is None else str(model), type(error).__name__,
+            " ".join(message.splitlines()), status,
+        )  # fmt: skip
+        print(json.dumps(document, indent=2))
+    return status
 
 
 def _check_output_files(args: argparse.Namespace) -> None:
