@@ -47,13 +47,17 @@ class ContactModes:
             for a ball or disc), (N, len(labels)); NaN for a failed case.
         modes: per case, the index of its mode (its touching set) in order of appearance; -1
             for a failed case.
-        changes: indices i where case i's mode differs from case i - 1's (failed cases skipped).
+        changes: indices i where case i's mode differs from case i - 1's, or where a ball, disc
+            or journal-end contact's force turns by more than 90 deg from case i - 1's (the part
+            flips across its play: :attr:`flips`); failed cases skipped.
+        flips: per change in :attr:`changes` made by such a turn, (i, the contacts that turned).
     """
 
     labels: tuple[str, ...]
     touching: FloatArray
     modes: npt.NDArray[np.int64]
     changes: tuple[int, ...]
+    flips: tuple[tuple[int, tuple[str, ...]], ...] = ()
 
 
 def contact_modes(batch: Sequence[Equilibrium | Exception]) -> ContactModes:
@@ -77,16 +81,38 @@ def contact_modes(batch: Sequence[Equilibrium | Exception]) -> ContactModes:
     modes = np.full(len(items), -1, dtype=np.int64)
     seen: dict[bytes, int] = {}
     changes: list[int] = []
+    flips: list[tuple[int, tuple[str, ...]]] = []
     previous: int | None = None
+    before: Equilibrium | None = None
     for i, row in enumerate(touching):
         if np.isnan(row).any():
             continue
         mode = seen.setdefault(row.tobytes(), len(seen))
         modes[i] = mode
-        if previous is not None and mode != previous:
+        item = cast(Equilibrium, items[i])
+        turned = () if before is None else flipped(before, item, shapes)
+        if turned:
+            flips.append((i, turned))
+        if previous is not None and (mode != previous or turned):
             changes.append(i)
-        previous = mode
-    return ContactModes(labels, touching, modes, tuple(changes))
+        previous, before = mode, item
+    return ContactModes(labels, touching, modes, tuple(changes), tuple(flips))
+
+
+def flipped(
+    before: Equilibrium, after: Equilibrium, shapes: dict[str, tuple[str, tuple[int, ...]]]
+) -> tuple[str, ...]:
+    """The ball, disc and journal-end contacts that touch in both answers and whose force turns
+    by more than 90 deg from ``before`` to ``after`` (a negative dot product)."""
+    forces = {c.label: c.force for c in before.contacts if c.active}
+    return tuple(
+        c.label
+        for c in after.contacts
+        if c.active
+        and shapes[c.label][0] == "norm"
+        and c.label in forces
+        and float(np.dot(forces[c.label], c.force)) < 0.0
+    )
 
 
 def _contact_shapes(mechanism: Mechanism) -> dict[str, tuple[str, tuple[int, ...]]]:
@@ -147,6 +173,9 @@ def plot_trajectory(
     mechanism = cast("Mechanism", first.mechanism)
     joint_id = _abscissa_joint(mechanism, items, driven_joint)
     x, unit = _abscissa(mechanism, items, joint_id)
+    along_path = bool(np.any(np.diff(x) > 0.0) and np.any(np.diff(x) < 0.0))
+    if along_path:  # out and back: the driven joint's value is no abscissa, the path is
+        x = np.arange(len(items), dtype=float)
     names = list(first.outputs) if outputs is None else list(outputs)
     deviation = np.full((len(items), len(names)), np.nan)
     for i in valid:
@@ -157,8 +186,7 @@ def plot_trajectory(
     figure = style.new_figure(11.0, 9.0)
     heights = [3.0, 3.0, max(1.2, 0.28 * len(modes.labels) + 0.6)]
     axes = figure.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": heights})
-    order = np.argsort(x[valid]) if len(valid) > 1 else np.arange(len(valid))
-    ok = np.array(valid)[order]
+    ok = np.array(valid)
     for k, name in enumerate(names):
         axes[0].plot(x[ok], deviation[ok, k] * 1e6, _dashes(k), label=name, **_width(k))
     axes[0].set_ylabel("output deviation |d| [um]")
@@ -178,7 +206,11 @@ def plot_trajectory(
         ax.set_ylim(bottom=0.0)
         ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     symbol = "deg" if unit == "rad" else "mm"
-    axes[-1].set_xlabel(f"{mechanism.model.names[joint_id]} [{symbol}]")
+    axes[-1].set_xlabel(
+        f"point along the path (the {mechanism.model.names[joint_id]} goes and comes back)"
+        if along_path
+        else f"{mechanism.model.names[joint_id]} [{symbol}]"
+    )
     changes = len(modes.changes)
     first_line = title or (
         f"{mechanism.name}: equilibrium along {mechanism.model.names[joint_id]} "

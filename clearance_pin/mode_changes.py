@@ -1,0 +1,154 @@
+r"""Positioning discontinuities along a trajectory: where the contact mode changes, located by
+bisection, and how far each output jumps there.
+
+Between two neighbouring poses :math:`q_{i-1}` and :math:`q_i` of a ``solve_many(configurations=)``
+batch whose contact modes differ (:func:`~clearance_pin.plot.trajectory.contact_modes`: a contact
+touches or leaves, a slab changes face, or a ball, disc or journal-end contact's force turns by
+more than 90 deg: the part flips across its play), the path
+:math:`q(s) = (1 - s)\, q_{i-1} + s\, q_i` is bisected on :math:`s \in [0, 1]` until the
+interval is below ``tolerance`` of the whole trajectory's driven range; the jump of each output
+is its displacement on the far side minus the near side,
+:math:`\Delta p = \delta p(s^+) - \delta p(s^-)` [m] (a contact that flips across a play c moves
+the parts by up to 2c at once: a discontinuity of the positioning, not of the model).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .equilibrium.result import Equilibrium
+from .errors import ArgumentError
+from .plot.trajectory import _contact_shapes, contact_modes, flipped
+
+
+@dataclass(frozen=True)
+class ModeChange:
+    """One located change of the contact mode.
+
+    Attributes:
+        index: the batch's case i after the change (it lies between cases i - 1 and i).
+        fraction: where between them, s in [0, 1] on q(s) = (1 - s) q_{i-1} + s q_i, to within
+            ``width``.
+        width: the bisected interval, as a fraction of the step from q_{i-1} to q_i.
+        configuration: q at the change (nq,) (the middle of the last interval).
+        touched, left, flipped: contacts (``joint:point``) that start touching, stop touching,
+            or whose force turns by more than 90 deg across the change (slab contacts changing
+            face are in ``flipped`` too).
+        jumps: output name -> translation jump (3,) [m], world axes, far side minus near side.
+    """
+
+    index: int
+    fraction: float
+    width: float
+    configuration: np.ndarray = field(repr=False)
+    touched: tuple[str, ...]
+    left: tuple[str, ...]
+    flipped: tuple[str, ...]
+    jumps: dict[str, np.ndarray]
+
+    def largest_jump(self) -> float:
+        """The largest output jump [m]."""
+        return max((float(np.linalg.norm(j)) for j in self.jumps.values()), default=0.0)
+
+
+def locate_changes(
+    batch: Sequence[Equilibrium | Exception],
+    outputs: Sequence[str] | None = None,
+    tolerance: float = 1e-6,
+) -> tuple[ModeChange, ...]:
+    """Every contact-mode change of ``batch`` (the answer of ``solve_many(configurations=...)``)
+    located by bisection to ``tolerance`` of the trajectory's driven range, with each output's
+    jump (module docstring). ``outputs``: output names of the answers (default: every output of
+    the first answer)."""
+    if not 0.0 < tolerance < 1.0:
+        raise ArgumentError("tolerance", "a fraction of the driven range in (0, 1)", tolerance)
+    items = list(batch)
+    modes = contact_modes(items)
+    answers = [item for item in items if isinstance(item, Equilibrium)]
+    mechanism: Any = answers[0].mechanism
+    shapes = _contact_shapes(mechanism)
+    names = list(answers[0].outputs) if outputs is None else list(outputs)
+    configurations: list[np.ndarray | None] = [
+        np.asarray(item.configuration.q) if isinstance(item, Equilibrium) else None  # type: ignore[attr-defined]
+        for item in items
+    ]
+    known = [q for q in configurations if q is not None]
+    span = float(np.max(np.ptp(np.array(known), axis=0))) if len(known) > 1 else 0.0
+    located = []
+    for index in modes.changes:
+        before = max(k for k in range(index) if configurations[k] is not None)
+        near, far = items[before], items[index]
+        assert isinstance(near, Equilibrium) and isinstance(far, Equilibrium)
+        q0, q1 = configurations[before], configurations[index]
+        assert q0 is not None and q1 is not None
+        step = float(np.max(np.abs(q1 - q0))) or 1.0
+        target = tolerance * (span or step) / step  # the interval's width in s
+        low, high = 0.0, 1.0
+        low_answer, high_answer = near, far
+
+        def solve(
+            s: float, q0: np.ndarray = q0, q1: np.ndarray = q1, loads: Any = near.loads
+        ) -> Any:
+            return mechanism.solve(loads=loads, q=(1.0 - s) * q0 + s * q1, gravity=False)
+
+        while high - low > target:
+            middle = 0.5 * (low + high)
+            answer = solve(middle)
+            if _same_mode(low_answer, answer, shapes):
+                low, low_answer = middle, answer
+            else:
+                high, high_answer = middle, answer
+        touched, left, turned = _differences(low_answer, high_answer, shapes)
+        jumps = {name: _moved(high_answer, name) - _moved(low_answer, name) for name in names}
+        located.append(
+            ModeChange(
+                index,
+                0.5 * (low + high),
+                high - low,
+                (1.0 - 0.5 * (low + high)) * q0 + 0.5 * (low + high) * q1,
+                touched,
+                left,
+                turned,
+                jumps,
+            )
+        )
+    return tuple(located)
+
+
+def _moved(answer: Equilibrium, name: str) -> np.ndarray:
+    """The translation [m] of an output of the answer, or of a Pinocchio frame."""
+    found = answer.outputs.get(name)
+    return np.asarray(found[0] if found is not None else answer.frame_displacement(name).linear)
+
+
+Shapes = dict[str, tuple[str, tuple[int, ...]]]
+
+
+def _touching(answer: Equilibrium, shapes: Shapes) -> dict[str, float]:
+    """Touching contacts with their side (+1 for a ball or disc, the face for a slab)."""
+    sides = {}
+    for c in answer.contacts:
+        if c.active:
+            kind, components = shapes[c.label]
+            pushed = c.force if c.moment is None else c.moment
+            sides[c.label] = 1.0 if kind != "abs" else (1.0 if pushed[components[0]] < 0 else -1.0)
+    return sides
+
+
+def _same_mode(a: Equilibrium, b: Equilibrium, shapes: Shapes) -> bool:
+    return _touching(a, shapes) == _touching(b, shapes) and not flipped(a, b, shapes)
+
+
+def _differences(a: Equilibrium, b: Equilibrium, shapes: Shapes) -> tuple[tuple[str, ...], ...]:
+    sides_a, sides_b = _touching(a, shapes), _touching(b, shapes)
+    touched = tuple(label for label in sides_b if label not in sides_a)
+    left = tuple(label for label in sides_a if label not in sides_b)
+    faces = [label for label in sides_b if label in sides_a and sides_a[label] != sides_b[label]]
+    return touched, left, tuple(faces) + flipped(a, b, shapes)
+
+
+__all__ = ["ModeChange", "locate_changes"]
