@@ -8,7 +8,8 @@ the drift cancels in each pair. Timed per paper case:
 
 - ``resolve``: ``mechanism.solve(loads)`` (warm start from the nearest recent answer) against
   ``peers.ClarabelPrebuilt(...).solve`` (built once with the case's load, ``update(q=...)``), at
-  Clarabel's default tolerances and at 1e-12;
+  Clarabel's default tolerances and at 1e-12, and ``peers.QocoPrebuilt`` (built once,
+  ``update_vector_data(c=...)``) at QOCO's defaults when QOCO is installed;
 - ``resolver``: ``mechanism.resolver(loads).solve(vector)``, the planner's re-solve built once
   and given the new force and torque vectors (the like of the peer's ``update(q=...)``), against
   the same peers;
@@ -43,7 +44,13 @@ import work_precision as wp
 from clearance_pin import PointForce, Torque
 from clearance_pin.equilibrium import fast_path
 
-PEERS = {"clarabel_prebuilt_default": None, "clarabel_prebuilt": 1e-12}  # name: tolerance
+# name: (the peer built once, its tolerance: None for its defaults); QOCO when installed (the
+# peers extra) at its defaults only: at 1e-10 and below it ends SOLVED_INACCURATE (2e-8 mm off)
+PEERS = {
+    "clarabel_prebuilt_default": (peers.ClarabelPrebuilt, None),
+    "clarabel_prebuilt": (peers.ClarabelPrebuilt, 1e-12),
+    **({"qoco_prebuilt_default": (peers.QocoPrebuilt, None)} if peers.qoco_available() else {}),
+}
 PATHS = ("resolve", "resolver", "cold", "batch")
 
 
@@ -93,8 +100,8 @@ def paired_case(case: wp.Case, repeats: int, seed: int) -> dict:
         ),
     }
     out: dict = {path: {} for path in PATHS}
-    for name, tol in PEERS.items():
-        prebuilt = peers.ClarabelPrebuilt(case.shaft, nominal, tol)
+    for name, (peer, tol) in PEERS.items():
+        prebuilt = peer(case.shaft, nominal, tol)
         prebuilt.solve(*nominal)
         for path, (build, ours) in calls.items():
             build()

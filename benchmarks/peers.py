@@ -394,6 +394,56 @@ class ClarabelPrebuilt:
         )
 
 
+class QocoPrebuilt:
+    r"""QOCO built once for a shaft, re-solved per load with ``update_vector_data(c=...)``.
+
+    QOCO's standard form: :math:`\min c^T x` s.t. :math:`A x = b`, :math:`G x + s = h`, s in a
+    product of second-order cones: the equalities (transport and gauge) are A, b; each clearance
+    set :math:`\|M x\| \le c` is a cone with rows ``G = [0; -M]``, ``h = [c; 0]`` (the data of
+    :func:`solve_clarabel`). Built with the case's own load; QOCO's default tolerances are 1e-7
+    (``tol`` sets its absolute and relative gap and feasibility tolerances).
+    """
+
+    def __init__(self, shaft: Shaft, load, tol: float | None = None):
+        import qoco
+        from scipy import sparse
+
+        self.shaft = shaft
+        equalities = np.vstack([shaft.transport_rows(), shaft.gauge_rows()])
+        rows, h, sizes = [], [], []
+        for radius, matrix in shaft.cones():
+            rows.append(np.vstack([np.zeros((1, 12)), -matrix]))
+            h.append(np.concatenate([[radius], np.zeros(matrix.shape[0])]))
+            sizes.append(matrix.shape[0] + 1)
+        g, h_vector = np.vstack(rows), np.concatenate(h)
+        settings = {"verbose": 0}
+        if tol is not None:
+            settings.update(abstol=tol, reltol=tol)
+        self.solver = qoco.QOCO()
+        self.solver.setup(
+            12, g.shape[0], equalities.shape[0], None, shaft.objective(*load),
+            sparse.csc_matrix(equalities), np.zeros(equalities.shape[0]),
+            sparse.csc_matrix(g), h_vector, 0, len(sizes), np.array(sizes, dtype=np.int32),
+            **settings,
+        )  # fmt: skip
+
+    def solve(self, force, torque) -> PeerSolution:
+        self.solver.update_vector_data(c=self.shaft.objective(force, torque))
+        result = self.solver.solve()
+        status = str(result.status)
+        return _split(np.asarray(result.x), f"qoco: {status}", result.iters,
+                      "SOLVED" in status.upper())  # fmt: skip
+
+
+def qoco_available() -> bool:
+    """Whether QOCO is installed (``pip install qoco``, the ``peers`` extra)."""
+    try:
+        import qoco  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 class ReducedClarabel:
     r"""Clarabel prebuilt on clearance_pin's reduced cone programme, updated per load.
 
