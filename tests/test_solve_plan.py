@@ -34,6 +34,8 @@ MODELS = Path(__file__).resolve().parent.parent / "models"
         ({"kernel": True, "backend": "clarabel"}, (Method.COMPILED, Method.CLARABEL, Method.IPOPT)),
         ({"kernel": False}, (Method.CLARABEL, Method.IPOPT)),
         ({"clarabel": False}, (Method.IPOPT,)),
+        ({"elastic": True, "kernel": True}, (Method.CLARABEL, Method.IPOPT)),
+        ({"elastic": True, "independent_blocks": True}, (Method.CLARABEL, Method.IPOPT)),
         (
             {"kernel": True, "independent_blocks": True},
             (Method.CLOSED_FORM, Method.CLARABEL, Method.IPOPT),
@@ -49,6 +51,7 @@ def test_the_plan_is_a_function_of_structure_and_options(structure, expected):
         "backend": "auto",
         "kernel": False,
         "clarabel": True,
+        "elastic": False,
         **structure,
     }
     assert plan_linear(**arguments) == expected

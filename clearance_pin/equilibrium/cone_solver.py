@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import ArgumentError
 from . import ipopt
+from .elastic_newton import curvature_scaled, elastic_residuals, polish_elastic
 from .kkt import ACCEPT_KKT, ACTIVE_GAP, active_set_solve, residuals
 from .method import Method, backend_method
 from .reduction import ReducedProblem
@@ -97,9 +98,11 @@ class IpoptBackend:
         import casadi as ca
 
         started = time.perf_counter()
-        size, shapes = signature
+        size, shapes = signature[:2]
+        self._elastic = len(signature) > 2 and bool(signature[2])  # f y + y H y / 2
         y = ca.SX.sym("y", size)
         f = ca.SX.sym("f", size)
+        h = ca.SX.sym("H", size, size) if self._elastic else ca.SX(size, size)
         total_rows = sum(k for _, k in shapes)
         p_matrix = ca.SX.sym("P", total_rows, size)
         offset = ca.SX.sym("o", total_rows)
@@ -110,10 +113,11 @@ class IpoptBackend:
             row += k
             constraints.append(ca.sumsqr(image) if shape == "norm" else image)
             lower.append(-ca.inf if shape == "norm" else -1.0)
+        parameters = [f, ca.vec(p_matrix), offset] + ([ca.vec(h)] if self._elastic else [])
         nlp = {
             "x": y,
-            "p": ca.vertcat(f, ca.vec(p_matrix), offset),
-            "f": ca.dot(f, y),
+            "p": ca.vertcat(*parameters),
+            "f": ca.dot(f, y) + 0.5 * ca.dot(y, ca.mtimes(h, y)),
             "g": ca.vertcat(*constraints) if constraints else ca.SX(0, 1),
         }
         options: dict[str, Any] = {
@@ -134,9 +138,10 @@ class IpoptBackend:
     def run(self, problem: ReducedProblem):
         """(y, multipliers, status, iterations) from the nominal start y = 0."""
         stack = problem.stack
-        parameters = np.concatenate(
-            [problem.objective, stack.matrix.ravel(order="F"), stack.offset]
-        )
+        parts = [problem.objective, stack.matrix.ravel(order="F"), stack.offset]
+        if self._elastic and problem.hessian is not None:
+            parts.append(problem.hessian.ravel(order="F"))
+        parameters = np.concatenate(parts)
         result, stats = ipopt.run(
             self._solver, x0=np.zeros(problem.size), p=parameters, lbg=self._lower, ubg=self._upper
         )
@@ -155,7 +160,7 @@ class ClarabelBackend:
         from scipy import sparse
 
         self._clarabel, self._sparse = clarabel, sparse
-        size, shapes = signature
+        size, shapes = signature[:2]
         self.build_time = 0.0
         settings = clarabel.DefaultSettings()
         settings.verbose = False
@@ -195,6 +200,8 @@ class ClarabelBackend:
         and thread (the last :data:`KEPT_SOLVERS`); a new load only updates the linear cost.
         """
         stack = problem.stack
+        if problem.hessian is not None:
+            return self._run_elastic(problem)
         solvers = self._local.__dict__.setdefault("solvers", {})
         entry = solvers.pop(id(stack), None)
         started = time.perf_counter()
@@ -220,6 +227,35 @@ class ClarabelBackend:
         result = solver.solve()
         z = np.asarray(result.z, dtype=float)
         multipliers = np.add.reduceat(z * self._z_weights, self._z_starts)
+        return (
+            np.asarray(result.x, dtype=float),
+            multipliers,
+            f"clarabel: {result.status}",
+            int(result.iterations),
+        )
+
+    def _run_elastic(self, problem: ReducedProblem):
+        """(y, multipliers, status, iterations) of the quadratic problem of a mechanism with
+        stiffness: H changes with the load (it is the elastic energy over the load's scale), so
+        the solver is built for each solve."""
+        started = time.perf_counter()
+        stack = problem.stack
+        upper = self._sparse.triu(self._sparse.csc_matrix(problem.hessian), format="csc")
+        cones = self._cone_matrix(problem) if stack.count else None
+        solver = self._clarabel.DefaultSolver(
+            upper,
+            np.asarray(problem.objective, dtype=float),
+            cones if cones is not None else self._sparse.csc_matrix((0, problem.size)),
+            self._offset_b(stack) if stack.count else np.zeros(0),
+            self._cones,
+            self._settings,
+        )
+        self.setup_time = time.perf_counter() - started
+        result = solver.solve()
+        z = np.asarray(result.z, dtype=float)
+        multipliers = (
+            np.add.reduceat(z * self._z_weights, self._z_starts) if stack.count else np.zeros(0)
+        )
         return (
             np.asarray(result.x, dtype=float),
             multipliers,
@@ -262,7 +298,10 @@ def backend_for(
         raise ArgumentError("backend", f"one of {', '.join(BACKENDS)}", backend)
     if backend == "auto":
         backend = "clarabel" if clarabel_available() else "ipopt"
-    key = (backend, problem.signature() if signature is None else signature, tol)
+    signature = problem.signature() if signature is None else signature
+    if problem.hessian is not None and len(signature) == 2:
+        signature = (*signature, True)  # a quadratic objective: IPOPT takes H as a parameter
+    key = (backend, signature, tol)
     built = kept.get(key)
     if built is not None:
         return built, False
@@ -282,6 +321,8 @@ def solve_cone(problem: ReducedProblem, backend) -> ConeSolution:
     started = time.perf_counter()
     stack = problem.stack
     accept = acceptance(problem.conditioning)
+    if problem.hessian is not None:
+        return _elastic_solution(problem, backend, accept, started)
     y, lam, status, iterations = backend.run(problem)
     setup_time = getattr(backend, "setup_time", 0.0)
     signs = stack.sides(y)
@@ -315,6 +356,40 @@ def solve_cone(problem: ReducedProblem, backend) -> ConeSolution:
         status,
         iterations,
         False,
+        measured,
+        time.perf_counter() - started,
+        setup_time,
+        backend_method(backend.name),
+    )
+
+
+def _elastic_solution(problem, backend, accept, started):
+    """The backend's answer of a problem with stiffness, polished by :mod:`.elastic_newton`
+    (verified at round-off) or returned unpolished with its measured residuals; both on the
+    problem rescaled by its curvature (:func:`.elastic_newton.curvature_scaled`), the residuals
+    measured there, y mapped back."""
+    problem, transform = curvature_scaled(problem)
+    y, lam, status, iterations = backend.run(problem)
+    setup_time = getattr(backend, "setup_time", 0.0)
+    stack = problem.stack
+    hessian = problem.hessian
+    verified = polish_elastic(stack, problem.objective, hessian, y, lam, accept)
+    if verified is not None:
+        y, lam, signs, measured = verified
+        polished = True
+    else:
+        signs = stack.sides(y) if stack.count else np.zeros(0)
+        phi = stack.values(y, None) if stack.count else np.zeros(0)
+        lam = np.where(phi > -ACTIVE_GAP, lam, 0.0)
+        measured = elastic_residuals(stack, problem.objective, hessian, y, lam, signs)
+        polished = False
+    return ConeSolution(
+        y if transform is None else transform @ y,
+        lam,
+        signs,
+        status,
+        iterations,
+        polished,
         measured,
         time.perf_counter() - started,
         setup_time,

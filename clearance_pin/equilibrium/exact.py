@@ -28,6 +28,7 @@ from ..errors import SolverError, UnboundedLoadError, UnsupportedError
 from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
+from ..model.stiffness import stiff_joints
 from ..numerics import null_space
 from . import ipopt
 from .contact_split import least_norm_split
@@ -294,6 +295,12 @@ def solve_exact_model(
     ``from_nominal``: ``linear`` is an answer that did not verify near a singular position of the
     closure (:class:`~clearance_pin.errors.NearSingularError`), no start: IPOPT starts from the
     nominal position and no contact (``linear`` is still reported as the answer's ``.linear``)."""
+    stiff = stiff_joints(mechanism.joints)
+    if stiff:
+        raise UnsupportedError(
+            f"the exact model does not include joint stiffness yet (joints {', '.join(stiff)}); "
+            "solve the small-displacement model (exact=False)"
+        )
     points = linear.output_points or resolve_outputs(mechanism, linear.loads or ())
     if linear.status == "indeterminate":  # nothing moves: the exact answer is the nominal one
         unmoved = replace(linear, formulation="exact", linear=linear, output_points=points)

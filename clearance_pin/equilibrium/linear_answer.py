@@ -49,10 +49,15 @@ def assemble_linear(
     torsor_array = prepared.torsor_array(x)
     twists = prepared.body_twists(x)
     gaps, force_rows = prepared.contact_state(x, multipliers, signs, problem.objective_scale)
+    stiffness = prepared.geometry.stiffness
+    springs = None if stiffness is None else stiffness * x  # K x [N or N m]
+    elastic_energy = 0.0 if springs is None else 0.5 * float(springs @ x)
     measured = Residuals.of(
         {
             **residuals,
-            "statics": prepared.statics_residual(problem.gradient, force_rows, problem.load_size),
+            "statics": prepared.statics_residual(
+                problem.gradient, force_rows, problem.load_size, springs
+            ),
             "max_violation_m": max(float(-gaps.min(initial=0.0)), 0.0),
             "max_violation_rel": max(float((-gaps / prepared.bounds).max(initial=0.0)), 0.0),
             "clearance_m": float(prepared.bounds.max(initial=0.0)),
@@ -71,7 +76,7 @@ def assemble_linear(
         force_rows,
         multipliers,
         measured,
-        float(problem.gradient @ x),
+        float(problem.gradient @ x) + elastic_energy,
         (status, method, solver_status, iterations, polished),
         (build_time, solve_time),
         problem.free_descriptions + flat_notes,

@@ -18,6 +18,7 @@ Engines (:class:`~.method.Method`):
    68 ms each), on an R-P-R arm with a block (15, 22) 3.1 ms against 1.1 ms; on the paper's
    shafts, the four-bar and the slider-crank (contacts <= unknowns) it takes 0.16 to 0.19 of
    Clarabel's time;
+   Neither when a joint has stiffness (the potential is quadratic: :mod:`.elastic_newton`);
 3. then the cold backend: Clarabel when installed (``backend="auto"`` or ``"clarabel"``), else or
    on request IPOPT; Clarabel's unverified answer goes to IPOPT.
 
@@ -40,6 +41,7 @@ def plan_linear(
     backend: str,
     kernel: bool,
     clarabel: bool,
+    elastic: bool = False,
 ) -> tuple[Method, ...]:
     """The engines to try, in order (module docstring).
 
@@ -51,9 +53,12 @@ def plan_linear(
         backend: the caller's ``"auto"``, ``"clarabel"`` or ``"ipopt"``.
         kernel: the compiled kernel is installed in this process.
         clarabel: Clarabel is importable.
+        elastic: a joint has stiffness (a quadratic potential: the cold backends only).
     """
     engines: list[Method] = []
-    if backend == "auto" and independent_blocks:
+    if elastic:
+        pass
+    elif backend == "auto" and independent_blocks:
         engines.append(Method.CLOSED_FORM)
     elif kernel and solved_before and size <= WARM_MAX_SIZE and contacts <= size:
         engines.append(Method.COMPILED)

@@ -221,10 +221,13 @@ class PreparedGeometry:
         )
         return gaps, forces
 
-    def statics_residual(self, gradient: np.ndarray, forces: np.ndarray, load_size=0.0):
-        r"""Relative statics residual :math:`\|P_\perp W (g - \sum_j S_j^T f_j)\| /
+    def statics_residual(
+        self, gradient: np.ndarray, forces: np.ndarray, load_size=0.0, springs=None
+    ):
+        r"""Relative statics residual :math:`\|P_\perp W (g + K x - \sum_j S_j^T f_j)\| /
         \max(\|W g\|, s)`, for one load (g (n,), forces (k,)) or many ((N, n), (N, k),
-        load_size s (N,)).
+        load_size s (N,)); ``springs``: the spring forces K x of the elastic unknowns [N or
+        N m] (None: rigid joints).
 
         :math:`g - \sum_j S_j^T f_j` is what each unknown's direction leaves unbalanced: for a
         translation the force [N], for a rotation the moment [N m] that the loads beyond the joint
@@ -236,7 +239,10 @@ class PreparedGeometry:
         larger of :math:`\|W g\|` and ``load_size`` (:math:`c \sum_b |F_b| + |M_b| / L` [J],
         the whole load: a load through a pivot leaves a round-off g that is no imbalance)."""
         weights = self.terms.statics_weights
-        weighted = weights * (gradient - forces @ self.terms.contact_rows)
+        unbalanced = gradient - forces @ self.terms.contact_rows
+        if springs is not None:
+            unbalanced = unbalanced + springs
+        weighted = weights * unbalanced
         if self.terms.reactions.shape[1]:
             weighted = weighted - (weighted @ self.terms.reactions) @ self.terms.reactions.T
         reference = np.maximum(np.sqrt(((weights * gradient) ** 2).sum(axis=-1)), load_size)
@@ -251,7 +257,9 @@ class PreparedGeometry:
         out[self.terms.scatter] = forces
         return out.reshape(-1, 3)
 
-    def flat_directions(self, y, multipliers, signs) -> tuple[np.ndarray, Sequence[str]]:
+    def flat_directions(
+        self, y, multipliers, signs, hessian: np.ndarray | None = None
+    ) -> tuple[np.ndarray, Sequence[str]]:
         r"""Directions (r, k) along which the optimum at (y, multipliers) is not unique, with
         their descriptions.
 
@@ -262,15 +270,20 @@ class PreparedGeometry:
         (no curvature of the active cones along it, to 1e-9 of the largest) changes neither the
         potential nor feasibility to second order: the load does not see it (for example the
         axial play of a journal loaded only radially, or a ball's tangential slide when it
-        carries 1e-9 of the load).
+        carries 1e-9 of the load). With stiffness, the elastic energy's ``hessian`` H (r, r)
+        curves it too (:math:`H d = 0` as well).
         """
         stack = self.geometry.stack
         largest = float(multipliers.max(initial=0.0))
         loaded = np.flatnonzero(multipliers > UNLOADED * largest)
-        _, gradients = stack.evaluate(y, signs)
-        rows = np.vstack([gradients[loaded], stack.hessian(multipliers)])
-        scale = max(1.0, float(np.abs(rows).max(initial=0.0)))
-        rows = rows / scale
+        curvature = stack.hessian(multipliers) if stack.count else np.zeros((stack.size,) * 2)
+        gradients = (
+            stack.evaluate(y, signs)[1][loaded] if stack.count else np.zeros((0, stack.size))
+        )
+        rows = np.vstack([gradients, curvature])
+        rows = rows / max(1.0, float(np.abs(rows).max(initial=0.0)))
+        if hessian is not None:  # on its own scale: a stiff joint's H dwarfs the contact rows
+            rows = np.vstack([rows, hessian / max(1.0, float(np.abs(hessian).max()))])
         if rows.size and _surely_full_rank(rows, 1e-9):
             return np.zeros((stack.size, 0)), ()
         flat = null_space(rows, rtol=1e-9) if rows.size else np.eye(stack.size)

@@ -21,6 +21,12 @@ Reduction, in the scaled unknowns :math:`z = Z^{-1} x` (Z: clearance-sized scale
    :math:`\|P_j y + o_j\| \le 1` with :math:`P_j = S_j Z Q / c_j` and :math:`o_j` the nominal
    eccentricity of a misaligned loop joint over its play (zero for an aligned one,
    :mod:`clearance_pin.kinematics.loop_frames`).
+
+With joint stiffness (:mod:`.small_displacement`: elastic unknowns with stiffnesses
+:math:`k_i`) the potential gains :math:`\tfrac12 x^T \mathrm{diag}(k) x`: an elastic unknown is
+seen by its energy as a contact sees a play unknown (step 2 counts it as blocked), and the
+objective becomes :math:`f^T y + \tfrac12 y^T H y` with
+:math:`H = Q^T Z \mathrm{diag}(k) Z Q / \sigma` (:attr:`ReducedProblem.hessian`).
 """
 
 from __future__ import annotations
@@ -106,6 +112,7 @@ class ReducedProblem:
     load_size: float = 0.0
     unblocked_share: float = 0.0
     translational: np.ndarray | None = None  # per unknown: a translation [m] (else a rotation)
+    hessian: np.ndarray | None = None  # H (r, r) of the elastic energy over sigma; None: rigid
 
     @property
     def size(self) -> int:
@@ -117,8 +124,12 @@ class ReducedProblem:
         return self.scale * (self.basis @ y)
 
     def signature(self) -> tuple:
-        """What a built solver depends on: sizes and shapes, not numbers."""
-        return (self.size, tuple((c.contact.shape, c.rows.shape[0]) for c in self.contacts))
+        """What a built solver depends on: sizes and shapes, not numbers (and whether the
+        objective is quadratic)."""
+        shapes = tuple((c.contact.shape, c.rows.shape[0]) for c in self.contacts)
+        if self.hessian is not None:
+            return (self.size, shapes, True)
+        return (self.size, shapes)
 
 
 @dataclass(frozen=True)
@@ -139,6 +150,7 @@ class ReducedGeometry:
     stack: StackedContacts
     conditioning: float = 1.0
     translational: np.ndarray | None = None  # per unknown: a translation [m] (else a rotation)
+    stiffness: np.ndarray | None = None  # per unknown x_i, k_i [N/m or N m/rad]; None: rigid
 
 
 def _split_rows(rows: np.ndarray, dimension: int, rtol: float = 1e-10):
@@ -300,8 +312,12 @@ def reduce_geometry(
     closure_basis, _, conditioning = _split_rows(normalised, n)
     no_closure = normalised.size == 0  # a tree: the closure basis is the identity
     seen_columns = None  # the basis is these columns of the identity (a tree's usual case)
-    if contacts:
-        contact_rows = np.vstack([c.rows / c.contact.bound for c in contacts]) * scale
+    elastic = np.flatnonzero(maps.stiffness)
+    if contacts or elastic.size:
+        # an elastic unknown is seen by its own energy (a unit row), as a contact sees its play
+        contact_rows = np.vstack(
+            [c.rows / c.contact.bound * scale for c in contacts] + [np.eye(n)[elastic]]
+        )
         seen_rows = contact_rows if no_closure else contact_rows @ closure_basis
         split = _split_blocks(seen_rows)
         if split is None:  # one block over all unknowns (loops): one SVD
@@ -323,6 +339,8 @@ def reduce_geometry(
         free_z = closure_basis @ free_w
         basis = closure_basis @ seen_w
         seen_columns = None
+    if elastic.size and seen_columns is None:
+        basis = _play_columns_first(basis, elastic)
     # a coordinate selection: gathered, not multiplied (+ 0.0: a -0.0 reads +0.0, as it did in
     # the product with the identity)
     if seen_columns is not None and seen_columns.size == n:  # Q = I: no (k, n) x (n, n)
@@ -359,7 +377,20 @@ def reduce_geometry(
         stack,
         conditioning,
         translational_unknowns(maps),
+        maps.stiffness if elastic.size else None,
     )
+
+
+def _play_columns_first(basis: np.ndarray, elastic: np.ndarray) -> np.ndarray:
+    """The same span as ``basis`` (n, r), its first columns the motions without elastic
+    deflection, their entries on the ``elastic`` unknowns exactly zero (they are round-off of the
+    SVD's), the others spanning what deflects. The elastic energy then has exact zeros on the
+    play columns: a stiff joint's deflection (1e-11 of the play at k = 1e15 N/m) is not lost in
+    the round-off of the play's basis vectors."""
+    spaces = row_spaces(basis[elastic], 1e-12, 1e-13)
+    play, deflecting = basis @ spaces.null, basis @ spaces.row
+    play[elastic] = 0.0
+    return np.hstack([play, deflecting])
 
 
 def with_scaled_load(
@@ -411,9 +442,15 @@ def loaded_problem(
     load_size: float,
     unblocked_share: float = 0.0,
 ) -> ReducedProblem:
-    """The reduced problem of ``geometry`` for one load already reduced: x-space gradient g,
+    r"""The reduced problem of ``geometry`` for one load already reduced: x-space gradient g,
     objective f, objective scale sigma [J], load size [J] and the neglected share of the load
-    along unblocked motions (see :func:`with_scaled_load`)."""
+    along unblocked motions (see :func:`with_scaled_load`); with stiffness, the elastic energy's
+    :math:`H = Q^T Z \mathrm{diag}(k) Z Q / \sigma` (the rigid problem when sigma is 0: no
+    working load, nothing deflects)."""
+    hessian = None
+    if geometry.stiffness is not None and sigma > 0.0:
+        weighted = geometry.basis * (geometry.scale**2 * geometry.stiffness)[:, None]
+        hessian = geometry.basis.T @ weighted / sigma
     return ReducedProblem(
         gradient,
         geometry.scale,
@@ -430,6 +467,7 @@ def loaded_problem(
         float(load_size),
         float(unblocked_share),
         geometry.translational,
+        hessian,
     )
 
 
@@ -438,7 +476,7 @@ def _constraints(maps: SmallDisplacementMaps, joints: dict):
     equality_rows: list[np.ndarray] = []
     equality_joints: list[str] = []
     for name, joint in joints.items():
-        torsor = maps.joint_torsor[name]
+        torsor = maps.play_torsor[name]
         is_loop = not hasattr(joint, "joint_id")
         if is_loop:
             for component in joint.clearance.rigid_components:

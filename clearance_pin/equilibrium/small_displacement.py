@@ -13,6 +13,13 @@ joint's motion subspace. A loop joint between frames a and b has the torsor
 :math:`T = \mathrm{Ad}(oM_a\, aM_c)^{-1} (\xi_b - \xi_a)` at its centre, in its clearance frame:
 the difference of the two parts' twists transported to the joint centre (docs/method.md section 2,
 closure holds by construction). The point P of body i moves by :math:`v_i + \omega_i \times p`.
+
+A joint with stiffness (:mod:`clearance_pin.model.stiffness`) adds elastic unknowns :math:`e_k`
+in series with its play: its relative motion is :math:`B_k t_k + D_k e_k` (D_k: the directions
+of :math:`K_k` that deflect, orthonormal, with stiffnesses :math:`k_i`) and its contacts read the
+play part alone, :math:`B_k t_k` for a tree joint, the relative motion minus :math:`D_k e_k` for
+a loop joint. The elastic energy is :math:`\tfrac12 \sum_i k_i x_i^2` over the elastic unknowns
+(``SmallDisplacementMaps.stiffness``).
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..model.joints import LoopJoint, TreeJoint
+from ..model.stiffness import elastic
 from ..numerics import null_space
 
 
@@ -39,6 +47,10 @@ class SmallDisplacementMaps:
         variable_basis: per variable, its basis vector in that joint's torsor, (6,).
         eccentricity: per loop joint, its child clearance frame in its parent one at this
             configuration (identity when aligned; a misaligned housing otherwise).
+        play_torsor: per joint name, the map x -> its play torsor, what its contacts read
+            (``joint_torsor`` less the elastic deflection; the same array without stiffness).
+        stiffness: per variable, its stiffness k_i [N/m or N m/rad] (0: a play or free unknown),
+            (n,); the elastic energy is 1/2 sum_i k_i x_i^2.
     """
 
     body_twist: list[np.ndarray]
@@ -47,6 +59,13 @@ class SmallDisplacementMaps:
     variable_joint: tuple[str, ...]
     variable_basis: tuple[np.ndarray, ...]
     eccentricity: dict[str, pin.SE3]
+    play_torsor: dict[str, np.ndarray]
+    stiffness: np.ndarray
+
+    @property
+    def elastic(self) -> bool:
+        """Whether any joint deflects elastically (some k_i > 0)."""
+        return bool(self.stiffness.any())
 
     @property
     def size(self) -> int:
@@ -98,20 +117,38 @@ def build_maps(
     """
     variable_joint: list[str] = []
     variable_basis: list[np.ndarray] = []
+    stiffness: list[float] = []
     columns_of: dict[int, tuple[int, int]] = {}
     bases: dict[int, np.ndarray] = {}
+    plays: dict[
+        int, int
+    ] = {}  # per tree joint: how many of its columns are play (the rest deflect)
+    loop_columns: dict[str, tuple[int, np.ndarray]] = {}  # loop joint -> (first column, D)
+
+    def add_columns(name: str, basis: np.ndarray, values) -> int:
+        start = len(variable_joint)
+        variable_joint.extend([name] * basis.shape[1])
+        variable_basis.extend(basis.T)
+        stiffness.extend(values)
+        return start
+
     for joint in tree_joints:
         basis = tree_joint_basis(joint)
-        start = len(variable_joint)
-        for column in basis.T:
-            variable_joint.append(joint.name)
-            variable_basis.append(column)
+        deflections, values = elastic(joint.clearance)
+        start = add_columns(joint.name, basis, np.zeros(basis.shape[1]))
+        add_columns(joint.name, deflections, values)
         columns_of[joint.joint_id] = (start, len(variable_joint))
-        bases[joint.joint_id] = basis
+        bases[joint.joint_id] = np.hstack([basis, deflections])
+        plays[joint.joint_id] = basis.shape[1]
+    for loop in loop_joints:
+        deflections, values = elastic(loop.clearance)
+        if values.size:
+            loop_columns[loop.name] = (add_columns(loop.name, deflections, values), deflections)
     n = len(variable_joint)
 
     body_twist = [np.zeros((6, n)) for _ in range(model.njoints)]
     joint_torsor: dict[str, np.ndarray] = {}
+    play_torsor: dict[str, np.ndarray] = {}
     joint_centre: dict[str, pin.SE3] = {}
     eccentricity: dict[str, pin.SE3] = {}
     by_id = {joint.joint_id: joint for joint in tree_joints}
@@ -126,6 +163,10 @@ def build_maps(
         torsor[:, start:stop] = bases[i]
         joint_torsor[joint.name] = torsor
         joint_centre[joint.name] = oMc
+        if stop - start > plays[i]:
+            play = torsor.copy()
+            play[:, start + plays[i] : stop] = 0.0
+            play_torsor[joint.name] = play
 
     for loop in loop_joints:
         frame_a, frame_b = model.frames[loop.frame_a], model.frames[loop.frame_b]
@@ -142,6 +183,11 @@ def build_maps(
         joint_torsor[loop.name] = oMc.inverse().action @ relative
         joint_centre[loop.name] = oMc
         eccentricity[loop.name] = offset
+        if loop.name in loop_columns:
+            first, deflections = loop_columns[loop.name]
+            play = joint_torsor[loop.name].copy()
+            play[:, first : first + deflections.shape[1]] -= deflections
+            play_torsor[loop.name] = play
     return SmallDisplacementMaps(
         body_twist,
         joint_torsor,
@@ -149,6 +195,8 @@ def build_maps(
         tuple(variable_joint),
         tuple(variable_basis),
         eccentricity,
+        {name: play_torsor.get(name, torsor) for name, torsor in joint_torsor.items()},
+        np.array(stiffness, dtype=float),
     )
 
 

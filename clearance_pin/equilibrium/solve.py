@@ -90,7 +90,11 @@ def solve_linear(
             "sizes, clearances and loads for extreme values",
             "not run",
         )
-    if problem.objective_scale == 0.0 or not count or problem.size == 0:
+    if (
+        problem.objective_scale == 0.0
+        or problem.size == 0
+        or not (count or problem.hessian is not None)
+    ):
         indeterminate = assemble_linear(
             prepared,
             problem,
@@ -145,7 +149,7 @@ def solve_linear(
         if solution.polished:
             cache.warm[prepared.signature] = solution
         flat, flat_notes = prepared.flat_directions(
-            solution.y, solution.multipliers, solution.signs
+            solution.y, solution.multipliers, solution.signs, problem.hessian
         )
         minimum_norm = not flat.shape[1]
         if flat.shape[1]:
@@ -207,8 +211,10 @@ def linear_plan(mechanism, prepared: PreparedGeometry, backend: str) -> tuple[Me
     with the caller's ``backend``: its structure, whether it has a verified answer, and what is
     installed."""
     geometry = prepared.geometry
+    elastic = geometry.stiffness is not None
     return plan_linear(
         independent_blocks=backend == "auto"
+        and not elastic
         and block_structure(geometry, bool(mechanism.loop_joints)) is not None,
         size=geometry.stack.size,
         contacts=geometry.stack.count,
@@ -216,6 +222,7 @@ def linear_plan(mechanism, prepared: PreparedGeometry, backend: str) -> tuple[Me
         backend=backend,
         kernel=kernel_installed(),
         clarabel=clarabel_available(),
+        elastic=elastic,
     )
 
 

@@ -38,6 +38,7 @@ from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotatio
 from .length_check import Kind, Length, check_lengths
 from .loads import Gravity, PointForce, Torque
 from .reference_sizes import Geometry, Shape
+from .stiffness import STIFFNESS_ATTRIBUTES, as_entries, stiffness_matrix
 from .xml_values import UNITS, label_of, labelled, number, vector
 
 BLOCK = "clearance_pin"
@@ -52,9 +53,14 @@ CLEARANCE_ATTRIBUTES = {
     "height": "height",
 }
 LENGTH_ATTRIBUTES = {*CLEARANCE_ATTRIBUTES, "diametral_clearance"}  # in the block's unit
-JOINT_ATTRIBUTES = {"name", "type", "driven", "backlash", "q", "axis", *LENGTH_ATTRIBUTES}
+JOINT_ATTRIBUTES = {
+    "name", "type", "driven", "backlash", "q", "axis", *LENGTH_ATTRIBUTES, *STIFFNESS_ATTRIBUTES
+}  # fmt: skip
 DEFAULT_ATTRIBUTES = (JOINT_ATTRIBUTES - {"name", "q"}) | {"joint_type"}
-LOOP_ATTRIBUTES = {"name", "type", "frame_a", "frame_b", "axis", *LENGTH_ATTRIBUTES}
+LOOP_ATTRIBUTES = {
+    "name", "type", "frame_a", "frame_b", "axis", *LENGTH_ATTRIBUTES,
+    *(a for a in STIFFNESS_ATTRIBUTES if a != "drive_stiffness"),
+}  # fmt: skip
 # URDF joint types a <default> may name; "revolute" also covers continuous joints
 DEFAULT_TYPES = ("revolute", "continuous", "prismatic", "floating")
 MJCF_WORDS = {"hinge": "revolute", "slide": "prismatic", "free": "floating"}
@@ -456,6 +462,7 @@ class _BlockReader:
                 )
             if element is not None and element.get("backlash") is not None:
                 clearance = self._with_backlash(element, label, clearance, driven, motion)
+            clearance = self._with_stiffness(element, label, clearance, motion if driven else None)
             if element is not None and element.get("q") is not None:
                 value = self._number(element, "q", length=motion == U)  # m or rad
                 if motion == U:
@@ -532,6 +539,38 @@ class _BlockReader:
         value = self._number(element, "backlash", True, length=motion == U)  # rad or m
         return replace(clearance, backlash=value)
 
+    def _with_stiffness(
+        self,
+        element: ET.Element | None,
+        label: str,
+        clearance: Clearance,
+        drive_component: int | None,
+    ) -> Clearance:
+        """``clearance`` with the joint's stiffness attributes (SI, whatever the block's unit:
+        :mod:`.stiffness`); ``drive_component``: what a driven joint's drive moves (None: not
+        driven)."""
+        if element is None or not any(element.get(a) is not None for a in STIFFNESS_ATTRIBUTES):
+            return clearance
+        values = {
+            attribute: self._number(element, attribute)
+            for attribute in STIFFNESS_ATTRIBUTES[:-1]
+            if element.get(attribute) is not None
+        }
+        full = None
+        text = element.get("stiffness")
+        if text is not None:
+            try:
+                full = np.array([float(word) for word in text.split()], dtype=float)
+            except ValueError:
+                raise ModelError(
+                    self.source, label, f"stiffness={text!r} is not 36 numbers (6x6, row by row)"
+                ) from None
+        try:
+            matrix = stiffness_matrix(clearance.kind, values, full, drive_component)
+        except ValueError as exc:
+            raise ModelError(self.source, label, str(exc)) from None
+        return replace(clearance, stiffness=as_entries(matrix))
+
     def loop_joints(self) -> tuple[LoopJoint, ...]:
         model = self.model
         joints = []
@@ -569,7 +608,9 @@ class _BlockReader:
             if kind is None:
                 raise ModelError(self.source, label, f"needs a type, one of {KINDS}")
             bodies = tuple(int(model.frames[f].parentJoint) for f in frames)
-            clearance = self._clearance(element, label, kind, bodies)
+            clearance = self._with_stiffness(
+                element, label, self._clearance(element, label, kind, bodies), None
+            )
             axis = self._vector(element, "axis", default=(1.0, 0.0, 0.0))
             joints.append(LoopJoint(name, frames[0], frames[1], clearance, rotation_x_to(axis)))
         return tuple(joints)
@@ -613,7 +654,7 @@ class _BlockReader:
                 "joint)",
             )
         try:
-            clearance = Clearance(kind, **values)
+            clearance = Clearance(kind, **values)  # type: ignore[arg-type]  # lengths only
         except ValueError as exc:
             raise ModelError(self.source, label, str(exc)) from None
         self._record_clearance(element, label, values, bodies)
@@ -700,7 +741,9 @@ def _with_default(
     if entry is None:
         return labelled("joint", {"name": name, **inherited}, f"{default_label} for joint {name!r}")
     if entry.get("type") is not None and entry.get("type") != default.get("type"):
-        inherited = {k: v for k, v in inherited.items() if k in ("driven", "backlash")}
+        inherited = {
+            k: v for k, v in inherited.items() if k in ("driven", "backlash", "drive_stiffness")
+        }
     if entry.get("radial_clearance") is not None or entry.get("diametral_clearance") is not None:
         inherited.pop("radial_clearance", None)
         inherited.pop("diametral_clearance", None)

@@ -139,6 +139,8 @@ class Clearance:
         backlash: a driven joint's total lost motion [rad for the revolute kinds, m for
             prismatic]: the joint turns (slides) within +/- backlash / 2 of its command, a
             contact ``"backlash"`` on its own motion (0: the drive holds it rigidly).
+        stiffness: K (6, 6) in the clearance frame as nested tuples [N/m, N m/rad], an elastic
+            deflection in series with the play (:mod:`.stiffness`); None: rigid.
     """
 
     kind: str
@@ -149,6 +151,7 @@ class Clearance:
     width: float = 0.0
     height: float = 0.0
     backlash: float = 0.0
+    stiffness: tuple[tuple[float, ...], ...] | None = None
     contacts: tuple[ContactPoint, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:

@@ -58,8 +58,12 @@ ClearanceSource: TypeAlias = str | os.PathLike[str] | Mapping[str, Any] | None
 
 STRING_KEYS = {"type", "frame_a", "frame_b", "link", "joint", "grade"}
 BOOLEAN_KEYS = {"driven", "enabled"}
-VECTOR_KEYS = {"axis", "point", "value", "direction", "rotation_axis"}
+VECTOR_KEYS = {"axis", "point", "value", "direction", "rotation_axis", "stiffness"}
 NUMBER_KEYS = {
+    "radial_stiffness",
+    "axial_stiffness",
+    "tilt_stiffness",
+    "drive_stiffness",
     "radial_clearance",
     "diametral_clearance",
     "length",
@@ -276,7 +280,9 @@ def _text(source: str, label: str, key: str, value: object) -> str:
             value = value.reshape(-1).tolist()
         if isinstance(value, Sequence) and not isinstance(value, str):
             return " ".join(_number_text(source, label, key, v) for v in value)
-        raise ModelError(source, label, f"{key} = {value!r} must be 3 numbers ([x, y, z])")
+        raise ModelError(
+            source, label, f"{key} = {value!r} must be numbers ([x, y, z]; 36 for a stiffness)"
+        )
     if key in NUMBER_KEYS:
         return _number_text(source, label, key, value)
     return str(value)  # an unknown attribute: the block's reader refuses it, naming the allowed

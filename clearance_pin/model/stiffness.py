@@ -1,0 +1,152 @@
+r"""Joint stiffness: an elastic deflection in series with a joint's play (issue 23).
+
+A joint's relative motion is its play torsor :math:`p` (bounded by its contacts) plus an elastic
+deflection :math:`e` with energy :math:`\tfrac12 e^T K e` (the virtual joint method of Pashkevich
+and Klimchik: a link's compliance lumped at its joint). K is a symmetric positive semi-definite
+6x6 matrix in the joint's clearance frame (components :math:`(u, v, w, \alpha, \beta, \gamma)`,
+x along the joint axis; [N/m] on translations, [N m/rad] on rotations, [N] or [N m/m] across).
+A direction K leaves at zero is rigid, as without stiffness.
+
+The attributes of a clearance file build K (always SI, whatever the block's ``unit``):
+
+- ``radial_stiffness`` [N/m]: v and w of a journal or block; u, v and w of a ball;
+- ``axial_stiffness`` [N/m]: u of a revolute or planar pin (a cylindrical or prismatic joint
+  slides along u);
+- ``tilt_stiffness`` [N m/rad]: beta and gamma of a journal, block or planar pin;
+- ``drive_stiffness`` [N m/rad, or N/m for a prismatic drive]: the driven joint's own motion
+  (a drive's torsional compliance, in series with its backlash);
+- ``stiffness``: the full matrix, 36 numbers row by row (the other attributes then add to it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from functools import lru_cache
+
+import numpy as np
+
+from .clearance import BETA, GAMMA, Clearance, U, V, W
+from .joints import LoopJoint, TreeJoint
+
+STIFFNESS_ATTRIBUTES = (
+    "radial_stiffness",
+    "axial_stiffness",
+    "tilt_stiffness",
+    "drive_stiffness",
+    "stiffness",
+)
+SYMMETRY_RTOL = 1e-9  # of the largest entry: a stiffness matrix must be symmetric to this
+ELASTIC_RTOL = 1e-12  # eigenvalues below this share of the largest are rigid directions
+JOURNALS = ("cylindrical", "revolute", "prismatic", "planar_revolute")
+COMPONENTS: dict[str, dict[str, tuple[int, ...]]] = {
+    "radial_stiffness": {
+        "spherical": (U, V, W),
+        **dict.fromkeys(JOURNALS, (V, W)),
+    },
+    "axial_stiffness": {"revolute": (U,), "planar_revolute": (U,)},
+    "tilt_stiffness": dict.fromkeys(JOURNALS, (BETA, GAMMA)),
+}
+
+
+def stiffness_matrix(
+    kind: str,
+    values: dict[str, float],
+    full: np.ndarray | None = None,
+    drive_component: int | None = None,
+) -> np.ndarray:
+    """K (6, 6) of a joint of clearance ``kind`` from its stiffness attributes ``values``
+    (attribute -> value, SI), the full matrix ``full`` (6, 6) and, for ``drive_stiffness``, the
+    component its drive moves (``ALPHA`` or ``U``; None: the joint is not driven).
+
+    Raises:
+        ValueError: an attribute the kind has no component for, a value not finite and > 0, or a
+            full matrix not symmetric positive semi-definite; the message names it.
+    """
+    matrix = np.zeros((6, 6)) if full is None else _checked_full(full)
+    for attribute, value in values.items():
+        if not (math.isfinite(value) and value > 0.0):
+            raise ValueError(f"{attribute}={value!r} must be a finite number > 0 (SI)")
+        if attribute == "drive_stiffness":
+            if drive_component is None:
+                raise ValueError(
+                    "drive_stiffness is the stiffness of a drive, and this joint is not driven: "
+                    'add driven="true" (or remove drive_stiffness)'
+                )
+            components: tuple[int, ...] = (drive_component,)
+        else:
+            by_kind = COMPONENTS[attribute]
+            if kind not in by_kind:
+                takers = ", ".join(by_kind)
+                raise ValueError(
+                    f"{attribute} applies to {takers} joints, not to a {kind} one (use stiffness, "
+                    "the full 6x6 matrix, for another direction)"
+                )
+            components = by_kind[kind]
+        for component in components:
+            matrix[component, component] += value
+    return matrix
+
+
+def _checked_full(full: np.ndarray) -> np.ndarray:
+    matrix = np.asarray(full, dtype=float)
+    if matrix.size != 36 or not np.all(np.isfinite(matrix)):
+        raise ValueError("stiffness must be 36 finite numbers (the 6x6 matrix row by row)")
+    matrix = matrix.reshape(6, 6)
+    largest = float(np.abs(matrix).max())
+    if float(np.abs(matrix - matrix.T).max()) > SYMMETRY_RTOL * largest:
+        raise ValueError("the stiffness matrix must be symmetric")
+    if np.linalg.eigvalsh(0.5 * (matrix + matrix.T))[0] < -ELASTIC_RTOL * largest:
+        raise ValueError("the stiffness matrix must be positive semi-definite (no negative energy)")
+    symmetric: np.ndarray = 0.5 * (matrix + matrix.T)
+    return symmetric
+
+
+def as_entries(matrix: np.ndarray) -> tuple[tuple[float, ...], ...] | None:
+    """K as nested tuples (hashable, for a frozen clearance), None when it is zero (rigid)."""
+    if not np.any(matrix):
+        return None
+    return tuple(tuple(float(v) for v in row) for row in matrix)
+
+
+def stiff_joints(joints: Mapping[str, TreeJoint | LoopJoint]) -> list[str]:
+    """The names of the joints (name -> TreeJoint or LoopJoint) that have stiffness."""
+    return [name for name, joint in joints.items() if joint.clearance.stiffness]
+
+
+def elastic(clearance: Clearance) -> tuple[np.ndarray, np.ndarray]:
+    """The directions of a joint that deflect elastically: basis (6, m) in its clearance frame
+    and their stiffnesses (m,) [N/m or N m/rad]; (6, 0) and (0,) for a rigid joint."""
+    if clearance.stiffness is None:
+        return np.zeros((6, 0)), np.zeros(0)
+    return elastic_directions(clearance.stiffness)
+
+
+@lru_cache(maxsize=256)
+def elastic_directions(entries: tuple[tuple[float, ...], ...]) -> tuple[np.ndarray, np.ndarray]:
+    r"""The eigen-directions of K with positive stiffness: basis (6, m) orthonormal and the
+    stiffnesses (m,), so that :math:`K = B\,\mathrm{diag}(k)\,B^T` on the directions that deflect
+    (coordinate axes kept as they are for a diagonal K)."""
+    matrix = np.array(entries, dtype=float)
+    largest = float(np.abs(matrix).max())
+    if not np.any(matrix - np.diag(np.diag(matrix))):
+        diagonal = np.diag(matrix)
+        kept = diagonal > ELASTIC_RTOL * largest
+        basis, values = np.eye(6)[:, kept], diagonal[kept]
+    else:
+        eigenvalues, vectors = np.linalg.eigh(matrix)
+        kept = eigenvalues > ELASTIC_RTOL * largest
+        basis, values = vectors[:, kept], eigenvalues[kept]
+    basis.setflags(write=False)
+    values.setflags(write=False)
+    return basis, values
+
+
+__all__ = [
+    "STIFFNESS_ATTRIBUTES",
+    "as_entries",
+    "elastic",
+    "elastic_directions",
+    "stiff_joints",
+    "stiffness_matrix",
+]
