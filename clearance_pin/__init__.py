@@ -29,6 +29,7 @@ from .errors import (
     NotFoundError,
     SingularPositionError,
     SolverError,
+    StiffnessLeftOutWarning,
     SuspectValueWarning,
     UnboundedLoadError,
 )
@@ -65,6 +66,7 @@ __all__ = [
     "SolverError",
     "ClearancePinWarning",
     "SuspectValueWarning",
+    "StiffnessLeftOutWarning",
     "ConditioningWarning",
 ]
 

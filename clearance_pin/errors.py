@@ -222,6 +222,11 @@ class ConditioningWarning(ClearancePinWarning):
     small-displacement answer loses accuracy roughly as 1 / conditioning."""
 
 
+class StiffnessLeftOutWarning(ClearancePinWarning):
+    """An analysis of the play alone (the envelope, the accuracy map) on a mechanism whose joints
+    have stiffness: their elastic deflection is not in its figures (the joints are named)."""
+
+
 class KernelUnavailableWarning(ClearancePinWarning):
     """The compiled kernel (numba) could not be loaded, most often because numba's cache is not
     writable (a read-only install: set ``NUMBA_CACHE_DIR`` to a writable folder): the solves go

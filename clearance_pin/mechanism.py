@@ -6,6 +6,7 @@ clearance or nominal configuration of the same structure.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -29,6 +30,7 @@ from .errors import (
     NearSingularError,
     NotFoundError,
     SolverError,
+    StiffnessLeftOutWarning,
 )
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
 from .kinematics.placements import placements_without_data
@@ -38,6 +40,7 @@ from .model.footprint import DATA_KEPT_UP_TO, check_fits, data_bytes
 from .model.frames import frame_id as find_frame
 from .model.joints import LoopJoint, TreeJoint
 from .model.loads import Gravity, Load, PointForce, Torque
+from .model.stiffness import stiff_joints
 
 
 @dataclass(frozen=True)
@@ -460,6 +463,7 @@ class Mechanism:
         max_directions, certificate)."""
         from .envelope import envelope
 
+        _warn_stiffness_left_out(self, "the envelope is of the play")
         return envelope(self, output, q=q, exact=exact, **options)
 
     def accuracy(self, output: str, configurations, payloads=(0.0,), gravity=None):
@@ -500,6 +504,19 @@ class Mechanism:
         return (
             f"Mechanism({self.name!r}: {len(self.tree_joints)} tree joints, "
             f"{len(self.loop_joints)} loop joints, {len(self.loads)} loads)"
+        )
+
+
+def _warn_stiffness_left_out(mechanism: Mechanism, what: str) -> None:
+    """StiffnessLeftOutWarning naming the joints with stiffness, for an analysis of the play."""
+    stiff = stiff_joints(mechanism.joints)
+    if stiff:
+        warnings.warn(
+            StiffnessLeftOutWarning(
+                f"{mechanism.name}: {what}: the stiffness of {', '.join(stiff)} is left out "
+                "(solve gives the equilibrium with it)"
+            ),
+            stacklevel=3,
         )
 
 

@@ -245,13 +245,21 @@ def test_ur5_drive_compliance_matches_the_virtual_joint_method():
     moved = answer.frame_displacement("tool0").linear
     assert moved == pytest.approx(expected, rel=1e-9, abs=1e-15)
 
+    # the accuracy map of a 2 kg payload: all of it drive compliance, J K^-1 J^T m g
+    weight = np.array([0.0, 0.0, -2.0 * 9.80665])
+    amap = mechanism.accuracy("tool0", configurations=[configuration], payloads=[2.0])
+    assert amap.translation[0, 0] == pytest.approx(
+        jacobian @ ((jacobian.T @ weight) / stiffness), rel=1e-9, abs=1e-15
+    )
+    assert set(amap.contributions) == {"drive compliance"}
+
 
 # -- input ---------------------------------------------------------------------------------------
 @pytest.mark.parametrize(
     "attributes, message",
     [
         ('drive_stiffness="1e3"', "not driven"),
-        ('driven="true" drive_stiffness="-5"', "finite number > 0"),
+        ('driven="true" drive_stiffness="-5"', "a finite number > 0"),
         ('axial_stiffness="nan"', "finite"),
         ('stiffness="1 2 3"', "36"),
         ('stiffness="' + " ".join(["1"] + ["0.5"] + ["0"] * 34) + '"', "symmetric"),
@@ -271,7 +279,7 @@ def test_bad_stiffness_is_refused_naming_the_joint(attributes, message):
 
 
 def test_a_stiffness_the_kind_cannot_take_is_refused():
-    with pytest.raises(ModelError, match="axial_stiffness applies to"):
+    with pytest.raises(ModelError, match="axial_stiffness does not apply to a spherical joint"):
         three_bearings('axial_stiffness="1e6"')
 
 
@@ -280,6 +288,12 @@ def test_the_exact_model_refuses_stiffness_naming_the_joints():
     for exact in (True, "auto"):
         with pytest.raises(ArgumentError, match="drive"):
             mechanism.solve([Torque("arm", [0, 0, 1.0])], gravity=False, exact=exact)
+
+
+def test_the_envelope_says_it_leaves_stiffness_out():
+    mechanism = cantilever(f'drive_stiffness="{DRIVE}" backlash="{BACKLASH}"')
+    with pytest.warns(cp.StiffnessLeftOutWarning, match="drive"):
+        mechanism.envelope("arm", kinds=("rotation",))
 
 
 def test_stiffness_from_a_toml_clearance_file(tmp_path):
@@ -300,3 +314,32 @@ def test_stiffness_from_a_toml_clearance_file(tmp_path):
     answer = mechanism.solve([Torque("arm", [0.0, 0.0, 3.0])], gravity=False)
     assert answer.ok
     assert answer.torsor("drive")[3] == pytest.approx(3.0 / (500.0 + 2e6), rel=1e-9)
+
+
+def test_springs_decide_a_hyperstatic_linkage_s_rigid_reactions():
+    """The planar four-bar is hyperstatic out of its plane (every pin holds the tilts and the
+    axial slide). With pin_B's tilts and slide elastic and the rest rigid, pin_B's spring does
+    not deflect (crank, coupler and rocker are held out of plane by rigid pivots), so it carries
+    nothing out of plane: statics of the rocker (its pivot then carries no out-of-plane load)
+    and of crank plus coupler (the crank pivot carries the whole 30 N across the plane). The
+    least-norm split of the rigid model shares it between the two paths instead."""
+    text = (MODELS / "four_bar.urdf").read_text()
+    elastic = text.replace(
+        'axis="0 0 1"/>', 'axis="0 0 1" tilt_stiffness="1e4" axial_stiffness="1e7"/>'
+    )
+    across = PointForce("coupler", [0.0, 0.0, 30.0], [0.09, 0.0, 0.0])
+    for source, shared in ((elastic, False), (text, True)):
+        mechanism = cp.loads(source)
+        answer = mechanism.solve([*mechanism.loads, across], gravity=False)
+        assert answer.ok
+        pin_b, rocker = answer.reaction("pin_B"), answer.reaction("rocker_pivot")
+        crank = answer.reaction("crank_pivot")
+        # clearance frames: x along the pins' axes, the world z
+        out_of_plane = np.array([pin_b.force[0], *pin_b.moment[1:], rocker.force[0]])
+        if shared:
+            assert np.abs(out_of_plane).max() > 1.0
+        else:
+            assert answer.deflection("pin_B") == pytest.approx(np.zeros(6), abs=1e-15)
+            assert out_of_plane == pytest.approx(np.zeros(4), abs=1e-9)
+            assert crank.force[0] == pytest.approx(-30.0, abs=1e-9)
+            assert pin_b.residual < 1e-12

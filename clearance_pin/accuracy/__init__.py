@@ -11,8 +11,10 @@ frame, origin at the joint centre :math:`c_j`, axes :math:`R_j`) moves it:
            \delta\theta = \sum_j R_j \omega_j
 
 (:math:`p`: the output's nominal origin at :math:`q_i`, world axes). Each joint's term is split by
-source: the component its drive turns (``"backlash"``: a driven joint's lost motion) and the
-others (``"play"``: the bearing's radial, axial and tilt play).
+source: its play on the component its drive turns (``"backlash"``: a driven joint's lost motion)
+and on the others (``"play"``: the bearing's radial, axial and tilt play), and, for a joint with
+stiffness, its elastic deflection (:meth:`~clearance_pin.equilibrium.result.Equilibrium.deflection`)
+on the drive's component (``"drive compliance"``) and on the others (``"bearing compliance"``).
 """
 
 from .accuracy_map import AccuracyMap, accuracy_map

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from ..mechanism import Mechanism
 
 STANDARD_GRAVITY = 9.80665  # [m/s^2], a payload mass's weight
-SOURCES = ("play", "backlash")
+SOURCES = ("play", "backlash", "bearing compliance", "drive compliance")
 
 
 @dataclass(frozen=True)
@@ -37,8 +37,9 @@ class AccuracyMap:
         payloads: each payload's label (``"2 kg"``, or the load case's loads written out).
         translation: displacement of the output frame's origin [m], world axes, (Q, P, 3).
         rotation: its rotation vector [rad], world axes, (Q, P, 3).
-        contributions: source (``"play"``, ``"backlash"``) -> joint -> its share of
-            :attr:`translation` [m], (Q, P, 3); the shares sum to the translation.
+        contributions: source (``"play"``, ``"backlash"``, ``"bearing compliance"``,
+            ``"drive compliance"``) -> joint -> its share of :attr:`translation` [m], (Q, P, 3);
+            the shares sum to the translation. Sources no joint has are left out.
         rotation_contributions: the same for :attr:`rotation` [rad].
         ok: every answer verified, (Q, P).
         solve_time: wall time of the solves and the split [s].
@@ -159,7 +160,8 @@ def accuracy_map(
                 continue  # not between the ground and the output: it does not move it
             axes, arms = levers[joint.name]
             torsor = batch.torsors(joint.name)  # (Q, 6) [m, rad], clearance frame
-            for source, part in _by_source(joint, torsor).items():
+            deflection = batch.deflections(joint.name) if joint.clearance.stiffness else None
+            for source, part in _by_source(joint, torsor, deflection).items():
                 moved, turned = moved_by(axes, arms, part)
                 shares[source][joint.name][:, k] = moved
                 turns[source][joint.name][:, k] = turned
@@ -235,13 +237,24 @@ def _describe(load: Any) -> str:
     return "gravity"
 
 
-def _by_source(joint: TreeJoint, torsor: np.ndarray) -> dict[str, np.ndarray]:
-    """A joint's torsors (Q, 6) split by source: the component its drive turns or slides
-    (``"backlash"``) and the others (``"play"``)."""
-    drive = np.zeros_like(torsor)
+def _by_source(
+    joint: TreeJoint, torsor: np.ndarray, deflection: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
+    """A joint's torsors (Q, 6) split by source: its elastic ``deflection`` (Q, 6) (None: a
+    rigid joint) on the component its drive turns or slides (``"drive compliance"``) and on the
+    others (``"bearing compliance"``); the rest, its play, on the drive's component
+    (``"backlash"``) and on the others (``"play"``)."""
+    elastic = np.zeros_like(torsor) if deflection is None else deflection
+    play = torsor - elastic
+    on_drive = np.zeros(6, dtype=bool)
     if joint.driven and joint.motion_component is not None:
-        drive[:, joint.motion_component] = torsor[:, joint.motion_component]
-    return {"play": torsor - drive, "backlash": drive}
+        on_drive[joint.motion_component] = True
+    return {
+        "play": np.where(on_drive, 0.0, play),
+        "backlash": np.where(on_drive, play, 0.0),
+        "bearing compliance": np.where(on_drive, 0.0, elastic),
+        "drive compliance": np.where(on_drive, elastic, 0.0),
+    }
 
 
 __all__ = ["STANDARD_GRAVITY", "AccuracyMap", "accuracy_map"]

@@ -17,7 +17,12 @@ if TYPE_CHECKING:
 
 UM = 1e6  # [um per m]
 MM = 1e3  # [mm per m]
-SOURCE_COLOURS = {"play": "tab:blue", "backlash": "tab:orange"}
+SOURCE_COLOURS = {
+    "play": "tab:blue",
+    "backlash": "tab:orange",
+    "bearing compliance": "tab:green",
+    "drive compliance": "tab:red",
+}
 
 
 def plot_accuracy(amap: AccuracyMap, mechanism: Mechanism, path: str | Path | None) -> Any:

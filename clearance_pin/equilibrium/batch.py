@@ -91,6 +91,17 @@ class EquilibriumBatch(Sequence):
             return values
         return self._one_by_one(joint, range(len(self)))
 
+    def deflections(self, joint: str) -> np.ndarray:
+        """Elastic deflection of ``joint`` for every case, (N, 6) [m, rad], clearance frame
+        (:meth:`.result.Equilibrium.deflection`: zero for a rigid joint; NaN for failed cases);
+        ``torsors(joint) - deflections(joint)`` is its play."""
+        rows = []
+        for i in range(len(self)):
+            item = self[i]
+            failed = isinstance(item, Exception)
+            rows.append(np.full(6, np.nan) if failed else item.deflection(joint))
+        return np.array(rows).reshape(-1, 6)
+
     def _one_by_one(self, joint: str, indices) -> np.ndarray:
         """Torsors of ``joint`` read from the items ``indices`` (NaN for errors), (k, 6)."""
         rows = []

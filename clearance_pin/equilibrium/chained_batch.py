@@ -50,6 +50,9 @@ class ChainedBatch(EquilibriumBatch):
     def torsors(self, joint: str) -> np.ndarray:
         return self._joined(lambda part: part.torsors(joint))
 
+    def deflections(self, joint: str) -> np.ndarray:
+        return self._joined(lambda part: part.deflections(joint))
+
     def frame_displacements(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
         pairs = [part.frame_displacements(frame) for part in self._parts]
         return np.concatenate([t for t, _ in pairs]), np.concatenate([r for _, r in pairs])

@@ -28,6 +28,7 @@ NEWTON_STEPS = 30
 SET_CHANGES = 8
 ACTIVE_GAP = 1e-6  # a contact this close to its boundary (phi) starts in the active set
 NEARLY_TOUCHING = 1e-3
+STALLED = 1e-12  # a residual this small that halves no more is round-off
 ROUND_OFF = 1e-15  # per unknown, of H's largest eigenvalue: below it an eigenvalue is zero
 
 
@@ -155,6 +156,8 @@ def _newton(stack, objective, hessian, y, multipliers, signs, active):
         size_now = float(np.abs(residual).max(initial=0.0))
         if not np.isfinite(size_now):
             break
+        if size_now >= 0.5 * best and best <= STALLED:  # round-off: no further progress
+            break
         if size_now < best:
             best, kept = size_now, (y.copy(), lam.copy())
         if size_now <= 1e-16:
@@ -163,7 +166,10 @@ def _newton(stack, objective, hessian, y, multipliers, signs, active):
         kkt[:size, :size] = curvature
         kkt[:size, size:] = gradients_a.T
         kkt[size:, :size] = gradients_a
-        step = np.linalg.lstsq(kkt, -residual, rcond=None)[0]
+        try:
+            step = np.linalg.solve(kkt, -residual)
+        except np.linalg.LinAlgError:  # dependent contact gradients (an indeterminate split)
+            step = np.linalg.lstsq(kkt, -residual, rcond=None)[0]
         y = y + step[:size]
         lam[indices] = lam[indices] + step[size:]
     if not np.isfinite(best):

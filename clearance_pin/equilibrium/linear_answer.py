@@ -133,6 +133,8 @@ def linear_equilibrium(
     state["body_twists"] = twists
     state["loads"] = loads if isinstance(loads, (tuple, LazySequence)) else tuple(loads)
     state["output_points"] = output_points
+    if x is not None and prepared.deflection_rows:
+        state["deflections"] = {name: rows @ x for name, rows in prepared.deflection_rows.items()}
     return equilibrium
 
 

@@ -69,6 +69,12 @@ class PreparedGeometry:
         )
         # answer maps
         self._torsor_rows = np.vstack([maps.joint_torsor[name] for name in self.terms.joint_names])
+        # per joint with stiffness, x -> its elastic deflection (6, n): its torsor less its play
+        self.deflection_rows = {
+            name: maps.joint_torsor[name] - maps.play_torsor[name]
+            for name in self.terms.joint_names
+            if maps.play_torsor[name] is not maps.joint_torsor[name]
+        }
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
         self._placements: dict = {}  # loaded links and masses at this configuration (load_terms)

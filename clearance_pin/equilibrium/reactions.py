@@ -21,7 +21,10 @@ frame origin :math:`o_b`):
 with :math:`L_b` the body's loads. The unknowns :math:`(\mu, \tau)` solve these 6 equations per
 body by least squares, minimum norm (forces [N] and moments / L_ref [N]) where the mechanism is
 statically indeterminate; the relative residual of that least squares is reported, so an
-unbalanced answer is visible.
+unbalanced answer is visible. A joint with stiffness transmits its spring's wrench along the
+directions that deflect (in series with its play): :math:`D^T W_j = D^T (-K e_j)` holds exactly
+(equality constraints of the least squares), so the springs, not the least norm, split a
+hyperstatic mechanism's reactions there.
 
 Where the wrenches act:
 
@@ -52,6 +55,7 @@ import pinocchio as pin
 
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.clearance import ALPHA, BETA, GAMMA
+from ..model.stiffness import elastic
 from ..numerics import null_space
 from .load_terms import gather_body_loads
 from .poses import clearance_frames
@@ -183,12 +187,15 @@ def joint_reactions(equilibrium) -> JointReactions:
         contact[c.joint] += joint_frames[c.joint].act(local).vector
 
     columns, owners = [], []  # generator wrenches at the world origin, (joint, part) of each
+    locals_ = []  # and in the joint's own frame
     held = exact and equilibrium.residuals.get("held_by_gauge", 0.0) > 0.0
     for name, joint in mechanism.joints.items():
         for part, local, placement in _generators(joint, frames[name], exact, held):
             for column in local.T:
                 columns.append(placement.act(pin.Force(column)).vector)
                 owners.append((name, part))
+                locals_.append(column)
+    springs = _spring_equations(mechanism, equilibrium, joint_frames, contact, owners, locals_)
 
     # body equations at each body's own origin, moments over L_ref: forces and moments compare
     origins = [placements[b].translation for b in range(bodies)]
@@ -220,7 +227,7 @@ def joint_reactions(equilibrium) -> JointReactions:
     if matrix.shape[1]:
         sizes = np.linalg.norm(matrix, axis=0)
         sizes[sizes == 0.0] = 1.0
-        solution = np.linalg.lstsq(matrix / sizes, -known, rcond=None)[0] / sizes
+        solution = _least_squares(matrix / sizes, -known, springs, sizes) / sizes
     else:
         solution = np.zeros(0)
     imbalance = (known + matrix @ solution).reshape(-1, 6)
@@ -233,6 +240,47 @@ def joint_reactions(equilibrium) -> JointReactions:
     return JointReactions(
         contact, parts["rigid"], parts["drive"], parts["held"], joint_frames, float(residual)
     )
+
+
+def _spring_equations(mechanism, equilibrium, joint_frames, contact, owners, locals_):
+    r"""The equations a joint's stiffness adds, (C (k, columns), d (k,)) or None: along its
+    directions that deflect (D, clearance frame) the joint transmits its spring's wrench,
+    :math:`D^T (W_{contact} + \sum_c \mu_c g_c) = D^T (-K e)` (the spring is in series with the
+    play, e its deflection), which decides the split of a hyperstatic mechanism's rigid
+    reactions where the least norm would not."""
+    rows, values = [], []
+    for name, joint in mechanism.joints.items():
+        deflection = (equilibrium.deflections or {}).get(name)
+        if deflection is None:
+            continue
+        directions, stiffnesses = elastic(joint.clearance)
+        spring = -directions @ (stiffnesses * (directions.T @ deflection))  # -K e, local
+        carried = joint_frames[name].actInv(pin.Force(contact[name])).vector
+        row = np.zeros((directions.shape[1], len(owners)))
+        for index, (owner, _) in enumerate(owners):
+            if owner == name:
+                row[:, index] = directions.T @ locals_[index]
+        rows.append(row)
+        values.append(directions.T @ (spring - carried))
+    if not rows:
+        return None
+    return np.vstack(rows), np.concatenate(values)
+
+
+def _least_squares(matrix, right, springs, sizes) -> np.ndarray:
+    """The minimum-norm least-squares solution of ``matrix`` u = ``right`` (u: the generators'
+    values times ``sizes``), subject to the springs' equations (C, d) on the values when given:
+    the particular solution of C, then the least squares over C's null space."""
+    if springs is None:
+        return np.linalg.lstsq(matrix, right, rcond=None)[0]
+    constraint, value = springs
+    constraint = constraint / sizes
+    particular = np.linalg.lstsq(constraint, value, rcond=None)[0]
+    free = null_space(constraint, rtol=1e-12) if constraint.size else np.eye(matrix.shape[1])
+    if not free.shape[1]:
+        return particular
+    rest = np.linalg.lstsq(matrix @ free, right - matrix @ particular, rcond=None)[0]
+    return particular + free @ rest
 
 
 def frames_at(mechanism, configuration, placements) -> dict:

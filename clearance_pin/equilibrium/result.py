@@ -124,6 +124,9 @@ class Equilibrium:
         body_twists: linear formulation: the spatial twist (v, omega) at the world origin of every
             body, shape (njoints, 6) [m, rad].
         note: how the formulation was chosen (``exact="auto"``).
+        deflections: joint name -> the elastic deflection (6,) [m, rad] its stiffness adds to its
+            play, clearance frame (joints with stiffness only; None without any;
+            :meth:`deflection`).
         loads: the loads the equilibrium was solved for (gravity included), None when unknown;
             :meth:`reaction` needs them.
     """
@@ -152,6 +155,7 @@ class Equilibrium:
     loads: tuple | None = field(default=None, repr=False)
     output_points: tuple = field(default=(), repr=False)
     difference_bound: dict | None = None
+    deflections: Mapping[str, np.ndarray] | None = field(default=None, repr=False)
 
     @property
     def ok(self) -> bool:
@@ -166,6 +170,15 @@ class Equilibrium:
         if joint not in self.torsors:
             raise NotFoundError("joint", joint, tuple(self.torsors))
         return self.torsors[joint].copy()
+
+    def deflection(self, joint: str) -> np.ndarray:
+        """The elastic deflection (u, v, w, alpha, beta, gamma) [m, rad] of ``joint`` in its
+        clearance frame: the part of :meth:`torsor` its stiffness gives (zero for a rigid joint);
+        ``torsor(joint) - deflection(joint)`` is its play."""
+        if joint not in self.torsors:
+            raise NotFoundError("joint", joint, tuple(self.torsors))
+        deflection = (self.deflections or {}).get(joint)
+        return np.zeros(6) if deflection is None else deflection.copy()
 
     def frame_placement(self, frame: str) -> pin.SE3:
         """World placement of a Pinocchio frame at the solved pose (linear: its body moved by the

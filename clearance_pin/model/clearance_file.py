@@ -280,9 +280,8 @@ def _text(source: str, label: str, key: str, value: object) -> str:
             value = value.reshape(-1).tolist()
         if isinstance(value, Sequence) and not isinstance(value, str):
             return " ".join(_number_text(source, label, key, v) for v in value)
-        raise ModelError(
-            source, label, f"{key} = {value!r} must be numbers ([x, y, z]; 36 for a stiffness)"
-        )
+        expected = "36 numbers (6x6, row by row)" if key == "stiffness" else "3 numbers ([x, y, z])"
+        raise ModelError(source, label, f"{key} = {value!r} must be {expected}")
     if key in NUMBER_KEYS:
         return _number_text(source, label, key, value)
     return str(value)  # an unknown attribute: the block's reader refuses it, naming the allowed

@@ -26,6 +26,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..errors import ArgumentError
 from .clearance import BETA, GAMMA, Clearance, U, V, W
 from .joints import LoopJoint, TreeJoint
 
@@ -60,27 +61,32 @@ def stiffness_matrix(
     component its drive moves (``ALPHA`` or ``U``; None: the joint is not driven).
 
     Raises:
-        ValueError: an attribute the kind has no component for, a value not finite and > 0, or a
-            full matrix not symmetric positive semi-definite; the message names it.
+        ArgumentError: an attribute the kind has no component for, a value not finite and > 0,
+            or a full matrix not symmetric positive semi-definite; the message names it.
     """
     matrix = np.zeros((6, 6)) if full is None else _checked_full(full)
     for attribute, value in values.items():
         if not (math.isfinite(value) and value > 0.0):
-            raise ValueError(f"{attribute}={value!r} must be a finite number > 0 (SI)")
+            raise ArgumentError(attribute, "a finite number > 0 (SI)", value)
         if attribute == "drive_stiffness":
             if drive_component is None:
-                raise ValueError(
-                    "drive_stiffness is the stiffness of a drive, and this joint is not driven: "
-                    'add driven="true" (or remove drive_stiffness)'
+                raise ArgumentError(
+                    attribute,
+                    'the stiffness of a drive, and this joint is not driven: add driven="true" '
+                    "(or remove drive_stiffness)",
+                    value,
                 )
             components: tuple[int, ...] = (drive_component,)
         else:
             by_kind = COMPONENTS[attribute]
             if kind not in by_kind:
                 takers = ", ".join(by_kind)
-                raise ValueError(
-                    f"{attribute} applies to {takers} joints, not to a {kind} one (use stiffness, "
-                    "the full 6x6 matrix, for another direction)"
+                raise ArgumentError(
+                    attribute,
+                    f"a stiffness of a {takers} joint (use stiffness, the full 6x6 matrix, for "
+                    "another direction)",
+                    value,
+                    f"{attribute} does not apply to a {kind} joint",
                 )
             components = by_kind[kind]
         for component in components:
@@ -91,13 +97,19 @@ def stiffness_matrix(
 def _checked_full(full: np.ndarray) -> np.ndarray:
     matrix = np.asarray(full, dtype=float)
     if matrix.size != 36 or not np.all(np.isfinite(matrix)):
-        raise ValueError("stiffness must be 36 finite numbers (the 6x6 matrix row by row)")
+        raise ArgumentError(
+            "stiffness", "36 finite numbers (the 6x6 matrix row by row)", f"{matrix.size} numbers"
+        )
     matrix = matrix.reshape(6, 6)
     largest = float(np.abs(matrix).max())
     if float(np.abs(matrix - matrix.T).max()) > SYMMETRY_RTOL * largest:
-        raise ValueError("the stiffness matrix must be symmetric")
+        raise ArgumentError("stiffness", "a symmetric 6x6 matrix", "an unsymmetric one")
     if np.linalg.eigvalsh(0.5 * (matrix + matrix.T))[0] < -ELASTIC_RTOL * largest:
-        raise ValueError("the stiffness matrix must be positive semi-definite (no negative energy)")
+        raise ArgumentError(
+            "stiffness",
+            "a positive semi-definite matrix (no negative energy)",
+            "a negative eigenvalue",
+        )
     symmetric: np.ndarray = 0.5 * (matrix + matrix.T)
     return symmetric
 
