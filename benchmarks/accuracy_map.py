@@ -6,7 +6,9 @@ their drives), and the bundled 6R arm: 1000 random poses within +/- 0.5 rad of t
 payloads 0 to 9 kg at the tool, the robot's own weight on (gravity=True). Timed in a fresh process
 as a user calls it, the mechanism built outside the timing; reported beside it: a loop of
 ``Mechanism.solve`` over a sample of the same cases (the way without the map), scaled to the
-whole map.
+whole map. Each robot runs twice: as it is, and with joint stiffness (every arm drive
+``drive_stiffness`` 2e4 N m/rad, every arm journal ``tilt_stiffness`` 2e5 N m/rad: a tree's springs
+add to its play by superposition, docs/method.md section 2.2.2).
 
 Usage: ``python benchmarks/accuracy_map.py [--poses 1000] [--payloads 10]``.
 """
@@ -27,14 +29,26 @@ import clearance_pin
 from clearance_pin import PointForce
 
 
+SPRINGS = 'driven="true" drive_stiffness="2e4" tilt_stiffness="2e5"'
+
+
+def stiffened(text: str) -> str:
+    """The clearance block with a spring on every driven journal (fingers excepted)."""
+    block = text[text.index("<clearance_pin>") :]
+    journals = block.replace('type="revolute" radial_clearance', "SPRUNG radial_clearance")
+    sprung = "\n".join(
+        line.replace('driven="true"', SPRINGS) if "SPRUNG" in line else line
+        for line in journals.splitlines()
+    ).replace("SPRUNG", 'type="revolute"')
+    return text.replace(block, sprung)
+
+
 def robots():
     import test_corpus_robots as corpus
 
-    yield (
-        "6R arm (models/arm_6r.urdf)",
-        clearance_pin.load(str(ROOT / "models/arm_6r.urdf")),
-        "tool",
-    )
+    arm = (ROOT / "models/arm_6r.urdf").read_text()
+    yield "6R arm (models/arm_6r.urdf)", clearance_pin.loads(arm), "tool"
+    yield "6R arm with springs", clearance_pin.loads(stiffened(arm)), "tool"
     try:
         text = corpus.model_text("panda").replace(
             "<clearance_pin>\n",
@@ -43,9 +57,11 @@ def robots():
             '  <joint name="panda_finger_joint2" driven="true"/>\n',
         )
         panda = clearance_pin.loads(text)
+        sprung = clearance_pin.loads(stiffened(text))
     except BaseException:  # pytest.skip without example-robot-data
         return
     yield "Franka Panda (example-robot-data)", panda, corpus.ROBOTS["panda"][2]
+    yield "Franka Panda with springs", sprung, corpus.ROBOTS["panda"][2]
 
 
 def main() -> None:

@@ -183,6 +183,32 @@ class Mechanism:
             check_values=False,
         )
 
+    def without_stiffness(self) -> Mechanism:
+        """The same mechanism with rigid joints: every joint's stiffness removed, its play,
+        backlash and drive kept (``self`` when no joint has stiffness); its values are not
+        checked again."""
+        if not stiff_joints(self.joints):
+            return self
+        tree = tuple(
+            replace(j, clearance=replace(j.clearance, stiffness=None)) for j in self.tree_joints
+        )
+        loops = tuple(
+            replace(j, clearance=replace(j.clearance, stiffness=None)) for j in self.loop_joints
+        )
+        return Mechanism(
+            self.model,
+            tree,
+            loops,
+            self.q_nominal,
+            self.loads,
+            self.gravity,
+            source=self.source,
+            name=self.name,
+            dimensions=self.dimensions,
+            check_values=False,
+            couplings=self.couplings,
+        )
+
     @property
     def data(self) -> pin.Data:
         """This thread's ``pin.Data`` of :attr:`model` (threads of ``solve_many`` each have one)."""

@@ -14,11 +14,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..equilibrium.elastic_tree import spring_deflections
 from ..errors import ArgumentError, NotFoundError
 from ..kinematics.joint_shares import joint_levers, moved_by
 from ..model.frames import frame_id as find_frame
 from ..model.joints import TreeJoint
 from ..model.loads import Gravity, PointForce, Torque
+from ..model.stiffness import stiff_joints
 
 if TYPE_CHECKING:
     from ..mechanism import Mechanism
@@ -145,11 +147,15 @@ def accuracy_map(
     }
     ok = np.zeros((count, len(cases)), dtype=bool)
     levers = joint_levers(model, mechanism.tree_joints, frame, poses)
+    # a tree's springs add to its play (:mod:`..equilibrium.elastic_tree`): the rigid twin's
+    # batch (closed forms over the poses) and each spring's deflection from its reactions
+    superposed = bool(stiff_joints(mechanism.joints)) and not mechanism.loop_joints
+    solver = mechanism.without_stiffness() if superposed else mechanism
     for k, loads in enumerate(cases):
         if not mechanism.resolve_loads(loads, False if gravity is False else gravity):
             ok[:, k] = True  # no load at all: every pose stays at its nominal place
             continue
-        batch = mechanism.solve_many(  # type: ignore[no-untyped-call]
+        batch = solver.solve_many(  # type: ignore[no-untyped-call]
             [loads] * count, configurations=poses, gravity=gravity, errors="return"
         )
         ok[:, k] = batch.ok
@@ -160,7 +166,12 @@ def accuracy_map(
                 continue  # not between the ground and the output: it does not move it
             axes, arms = levers[joint.name]
             torsor = batch.torsors(joint.name)  # (Q, 6) [m, rad], clearance frame
-            deflection = batch.deflections(joint.name) if joint.clearance.stiffness else None
+            deflection = None
+            if joint.clearance.stiffness and superposed:
+                deflection = spring_deflections(joint, batch.reactions(joint.name))
+                torsor = torsor + deflection
+            elif joint.clearance.stiffness:
+                deflection = batch.deflections(joint.name)
             for source, part in _by_source(joint, torsor, deflection).items():
                 moved, turned = moved_by(axes, arms, part)
                 shares[source][joint.name][:, k] = moved

@@ -94,6 +94,7 @@ class SolveCache:
         self.lock = threading.RLock()
         self.geometries: LeastRecentlyUsed[Any, Any] = LeastRecentlyUsed(GEOMETRIES_KEPT)
         self.tree_geometry: Any = None
+        self.play_twin: Any = None  # a tree with stiffness: the same tree with rigid joints
         self.geometry_terms: dict[int, tuple[Any, Any]] = {}
         self.warm: dict[tuple, Any] = {}
         self.projection_hints: dict[tuple, set[bytes]] = {}

@@ -46,9 +46,37 @@ def assemble_linear(
     """The answer of the reduced solution (y, multipliers, slab sides ``signs``) for ``loads``,
     with the solver's KKT ``residuals`` and the ones measured here (module docstring)."""
     x = prepared.x_from_y @ y
+    gaps, force_rows = prepared.contact_state(x, multipliers, signs, problem.objective_scale)
+    return answer_of_x(
+        prepared, problem, x, gaps, force_rows, multipliers, status, method, solver_status,
+        iterations, polished, build_time, solve_time, residuals, loads, flat_notes,
+        output_points,
+    )  # fmt: skip
+
+
+def answer_of_x(
+    prepared: PreparedGeometry,
+    problem: ReducedProblem,
+    x,
+    gaps,
+    force_rows,
+    multipliers,
+    status,
+    method,
+    solver_status,
+    iterations,
+    polished,
+    build_time,
+    solve_time,
+    residuals,
+    loads: tuple,
+    flat_notes=(),
+    output_points: tuple = (),
+) -> Equilibrium:
+    """The answer of the unknowns x (n,) with its contact gaps [m] and stacked force rows [N]
+    (:meth:`.prepared.PreparedGeometry.contact_state`), the residuals measured here."""
     torsor_array = prepared.torsor_array(x)
     twists = prepared.body_twists(x)
-    gaps, force_rows = prepared.contact_state(x, multipliers, signs, problem.objective_scale)
     stiffness = prepared.geometry.stiffness
     springs = None if stiffness is None else stiffness * x  # K x [N or N m]
     elastic_energy = 0.0 if springs is None else 0.5 * float(springs @ x)
@@ -201,4 +229,10 @@ def split_force_rows(prepared: PreparedGeometry, x, force_rows, active) -> np.nd
     return out
 
 
-__all__ = ["ACTIVE_RELATIVE_GAP", "assemble_linear", "linear_equilibrium", "split_force_rows"]
+__all__ = [
+    "ACTIVE_RELATIVE_GAP",
+    "answer_of_x",
+    "assemble_linear",
+    "linear_equilibrium",
+    "split_force_rows",
+]

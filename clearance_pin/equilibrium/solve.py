@@ -27,6 +27,7 @@ from ..numerics import norm
 from .block_verify import closed_form_answer
 from .blocks import block_structure
 from .cone_solver import backend_for, clarabel_available, solve_cone
+from .elastic_tree import superposed
 from .fast_path import (
     BoundLoads,
     FastTerms,
@@ -69,6 +70,9 @@ def solve_linear(
     started = time.perf_counter()
     if prepared is None:
         prepared = prepared_geometry(mechanism, q)
+    if prepared.geometry.stiffness is not None and not mechanism.loop_joints:
+        return _springs_superposed(mechanism, prepared, loads, q, tol, backend, warm_start,
+                                   output_points, started)  # fmt: skip
     cache = mechanism.cache
     plan = linear_plan(mechanism, prepared, backend)
     fast = fast_terms(prepared) if Method.COMPILED in plan else None
@@ -204,6 +208,25 @@ def solve_linear(
             equilibrium,
         )
     return equilibrium
+
+
+def _springs_superposed(mechanism, prepared, loads, q, tol, backend, warm_start, output_points,
+                        started) -> Equilibrium:  # fmt: skip
+    """A tree with stiffness: its rigid twin's answer (its own plan: closed forms, kernel, cone
+    solvers) plus each spring's deflection (:mod:`.elastic_tree`)."""
+    cache = mechanism.cache
+    if cache.play_twin is None:
+        cache.play_twin = mechanism.without_stiffness()
+    play = solve_linear(cache.play_twin, loads, q, tol, backend, warm_start, output_points)
+    answer = superposed(mechanism, prepared, loads, play, started)
+    if not answer.ok:
+        raise SolverError(
+            "the springs' deflection added to the play does not balance the loads",
+            answer.solver_status,
+            answer.residuals,
+            answer,
+        )
+    return answer
 
 
 def linear_plan(mechanism, prepared: PreparedGeometry, backend: str) -> tuple[Method, ...]:

@@ -1,0 +1,88 @@
+r"""Joint stiffness in a tree, by superposition: the play's answer plus each spring's deflection.
+
+In a tree (no loop joints) no contact and no closure equation reads an elastic unknown
+(:mod:`.small_displacement`: a tree joint's contacts read its play :math:`B_k t_k` only), so the
+potential :math:`g_t^T t + g_e^T e + \tfrac12 \sum_i k_i e_i^2` splits: the play t is the answer of
+the same tree with rigid joints (whatever engine the plan gives it: closed forms, the compiled
+kernel, a cone solver), and each elastic unknown is at its own minimum,
+
+.. math::  e_i = -g_i / k_i ,
+
+the deflection of a spring under the joint's reaction (the virtual joint method). The answer is
+assembled on the mechanism's own geometry and measured there (statics with the springs' forces),
+like any other.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from ..model.stiffness import elastic
+from .linear_answer import answer_of_x
+from .prepared import PreparedGeometry
+from .result import Equilibrium
+from .small_displacement import tree_joint_basis
+
+KKT = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
+
+
+def superposed(mechanism, prepared: PreparedGeometry, loads, play: Equilibrium, started: float):
+    """The answer of ``mechanism`` (a tree with stiffness, prepared at the configuration of
+    ``prepared``) for ``loads`` from ``play``, the answer of its rigid twin
+    (:meth:`~clearance_pin.mechanism.Mechanism.without_stiffness`) for the same loads."""
+    problem = prepared.problem(loads)
+    maps = prepared.maps
+    x = np.zeros(prepared.size_x)
+    elastic = maps.stiffness > 0.0
+    x[~elastic] = np.concatenate(
+        [tree_joint_basis(joint).T @ play.torsors[joint.name] for joint in mechanism.tree_joints]
+    )
+    x[elastic] = -problem.gradient[elastic] / maps.stiffness[elastic]
+    contacts = prepared.geometry.contacts
+    forces = np.zeros((len(contacts), 3))
+    carried = np.zeros(len(contacts))
+    for index, (constraint, contact) in enumerate(zip(contacts, play.contacts)):
+        lever = constraint.contact.lever
+        moment = contact.moment
+        forces[index] = moment / lever if lever and moment is not None else contact.force
+        carried[index] = float(np.linalg.norm(forces[index]))
+    force_rows = forces.reshape(-1)[prepared.terms.scatter]
+    gaps, _ = prepared.contact_state(x, np.zeros(len(contacts)), np.ones(len(contacts)), 0.0)
+    residuals = {name: play.residuals[name] for name in KKT if name in play.residuals}
+    answer = answer_of_x(
+        prepared,
+        problem,
+        x,
+        gaps,
+        force_rows,
+        carried,
+        play.status,
+        play.method,
+        f"{play.solver_status}; springs by superposition (a tree)",
+        play.iterations,
+        play.polished,
+        play.build_time,
+        time.perf_counter() - started,
+        residuals,
+        loads,
+        (),
+        play.output_points,
+    )
+    return replace(answer, free_motions=play.free_motions)  # the play's, flat directions named
+
+
+def spring_deflections(joint, reactions: np.ndarray) -> np.ndarray:
+    r"""The deflection (N, 6) [m, rad] of ``joint``'s spring under its reactions (N, 6) [N, N m]
+    (the parent's wrench on the child, clearance frame): :math:`e = -K^+ W`, K's inverse on the
+    directions that deflect. In a tree this is the :math:`e_i = -g_i / k_i` of the module
+    docstring, read from a batch's reactions (:meth:`.batch.EquilibriumBatch.reactions`) of the
+    rigid twin."""
+    directions, stiffnesses = elastic(joint.clearance)
+    compliance = directions @ (directions.T / stiffnesses[:, None])
+    return -reactions @ compliance.T
+
+
+__all__ = ["spring_deflections", "superposed"]
