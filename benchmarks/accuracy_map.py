@@ -28,7 +28,6 @@ sys.path.insert(0, str(ROOT / "tests"))
 import clearance_pin
 from clearance_pin import PointForce
 
-
 SPRINGS = 'driven="true" drive_stiffness="2e4" tilt_stiffness="2e5"'
 
 
