@@ -60,6 +60,9 @@ def equilibrium_document(equilibrium: Any) -> dict[str, Any]:
         }
         for name, t in equilibrium.torsors.items()
     }
+    for name, deflection in (equilibrium.deflections or {}).items():  # a joint's springs' part
+        torsors[name]["spring_translation_m"] = _vector(deflection[:3])
+        torsors[name]["spring_rotation_rad"] = _vector(deflection[3:])
     bearing, reactions = {}, {}
     for name in equilibrium.torsors:
         local = equilibrium.reaction(name, frame="joint")

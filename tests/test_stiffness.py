@@ -343,3 +343,34 @@ def test_springs_decide_a_hyperstatic_linkage_s_rigid_reactions():
             assert out_of_plane == pytest.approx(np.zeros(4), abs=1e-9)
             assert crank.force[0] == pytest.approx(-30.0, abs=1e-9)
             assert pin_b.residual < 1e-12
+
+
+def test_the_engineer_reads_the_springs_part_in_the_report_and_the_json(tmp_path, capsys):
+    """The text report adds the springs' part of each torsor; the solve document gives it as
+    spring_translation_m / spring_rotation_rad and follows its schema."""
+    import json
+
+    jsonschema = pytest.importorskip("jsonschema")
+    from clearance_pin.cli import main
+    from clearance_pin.json_documents import schema
+
+    attributes = f'backlash="{BACKLASH}" drive_stiffness="{DRIVE}"'
+    urdf = tmp_path / "cantilever.urdf"
+    urdf.write_text(f"""<?xml version="1.0"?>
+<robot name="cantilever"><link name="base"/><link name="arm"/>
+  <joint name="drive" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
+  <clearance_pin>
+    <joint name="drive" type="revolute" radial_clearance="1e-5" length="0.04" driven="true"
+           {attributes}/>
+    <torque link="arm" value="0 0 2"/>
+  </clearance_pin>
+</robot>""")
+    assert main(["solve", str(urdf)]) == 0
+    assert "of which springs" in capsys.readouterr().out
+    assert main(["solve", str(urdf), "--json"]) == 0
+    document = json.loads(capsys.readouterr().out)
+    jsonschema.validate(document, schema("solve"))
+    torsor = document["equilibrium"]["torsors"]["drive"]
+    assert torsor["spring_rotation_rad"][0] == pytest.approx(2.0 / DRIVE, rel=1e-12)
+    assert torsor["rotation_rad"][0] == pytest.approx(BACKLASH / 2 + 2.0 / DRIVE, rel=1e-12)

@@ -11,7 +11,8 @@ Sections (each states the frame of what it reports):
   transverse moment :math:`\\sqrt{M_y^2 + M_z^2}` and the drive torque (or force) of a driven joint;
 - *contacts*: gap [um], force [N] (parent on child, clearance frame) and where it acts, in the world
   [mm];
-- *joint torsors* (u, v, w [um], alpha, beta, gamma [urad]), clearance frames;
+- *joint torsors* (u, v, w [um], alpha, beta, gamma [urad]), clearance frames, and the part of
+  them the joints' springs give (joint stiffness);
 - residuals, eccentricities, free motions (each once), notes.
 
 Columns are as wide as their longest entry (long joint names, values of 10 mm and more), and a
@@ -113,8 +114,10 @@ def contributors_table(equilibrium) -> list[str]:
              f"{np.dot(t, translation) / total**2 * 100:.1f}"]
             for joint, (t, _) in shares.items()
         ]  # fmt: skip
+        moved_by = "play and springs" if equilibrium.deflections else "play"
         lines += [
-            f"what moves {name}: each joint's play, world axes (shares sum to its translation)",
+            f"what moves {name}: each joint's {moved_by}, world axes (shares sum to its "
+            "translation)",
             *columns(["joint", "|share| [um]", "share (world) [um]", "along it [%]"], rows),
         ]
     return lines
@@ -215,7 +218,17 @@ def torsors_table(equilibrium) -> list[str]:
         for name, t in equilibrium.torsors.items()
     ]
     header = ["joint", "u [um]", "v [um]", "w [um]", "alpha [urad]", "beta [urad]", "gamma [urad]"]
-    return ["joint torsors: child relative to parent, clearance frame", *columns(header, rows)]
+    lines = ["joint torsors: child relative to parent, clearance frame", *columns(header, rows)]
+    if equilibrium.deflections:
+        springs = [
+            [name, *(number(v * UM) for v in d[:3]), *(number(v * URAD) for v in d[3:])]
+            for name, d in equilibrium.deflections.items()
+        ]
+        lines += [
+            "of which springs (joint stiffness; the rest is play), clearance frame",
+            *columns(header, springs),
+        ]
+    return lines
 
 
 def report(equilibrium) -> str:
