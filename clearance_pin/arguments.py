@@ -27,7 +27,6 @@ from .equilibrium.cone_solver import BACKENDS
 from .errors import ArgumentError, LoadError, ModelError
 from .model import plausibility
 from .model.loads import Gravity, PointForce, Torque
-from .model.stiffness import stiff_joints
 
 if TYPE_CHECKING:
     from .mechanism import Mechanism
@@ -151,25 +150,9 @@ def check_solve(
 ) -> np.ndarray | None:
     """Every argument of :meth:`Mechanism.solve`; returns ``q`` as an array (or None)."""
     check_options(exact, gravity, tol, backend, accuracy, warm_start)
-    check_exact_stiffness(mechanism, exact)
     check_loads(loads)
     check_outputs(outputs)
     return check_configuration(mechanism, q)
-
-
-def check_exact_stiffness(mechanism: Mechanism, exact: object) -> None:
-    """The exact (finite-displacement) model is of rigid joints with play: refused, naming the
-    joints, when a joint has stiffness (the small-displacement model includes it)."""
-    if exact is False:
-        return
-    stiff = stiff_joints(mechanism.joints)
-    if stiff:
-        raise ArgumentError(
-            "exact",
-            "False: the exact model does not include joint stiffness yet (joints with stiffness: "
-            f"{', '.join(stiff)}); the small-displacement model does",
-            exact,
-        )
 
 
 def check_outputs(outputs: object) -> None:
@@ -302,7 +285,6 @@ def check_solve_many(
         options.get("accuracy", 1e-9),
         options.get("warm_start", True),
     )
-    check_exact_stiffness(mechanism, options.get("exact", False))
     check_outputs(options.get("outputs"))
     errors = options.get("errors", "raise")
     if not (isinstance(errors, str) and errors in ("raise", "return")):

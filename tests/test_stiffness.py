@@ -13,7 +13,7 @@ import pinocchio as pin
 import pytest
 
 import clearance_pin as cp
-from clearance_pin import ArgumentError, ModelError, PointForce, Torque
+from clearance_pin import ModelError, PointForce, Torque
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 BACKLASH = 0.002  # [rad]
@@ -283,11 +283,38 @@ def test_a_stiffness_the_kind_cannot_take_is_refused():
         three_bearings('axial_stiffness="1e6"')
 
 
-def test_the_exact_model_refuses_stiffness_naming_the_joints():
-    mechanism = cantilever(f'drive_stiffness="{DRIVE}"')
+@pytest.mark.parametrize("torque", [2.0, -3.0])
+def test_the_exact_model_turns_a_driven_journal_by_its_backlash_and_spring(torque):
+    """Exact model: the couple T does the work T sin(theta) (docs/method.md section 4) and the
+    spring stores k e^2 / 2, theta = sign(T) b/2 + e, so -T cos(theta) + k e = 0, solved here by
+    fixed-point iteration; exact="auto" runs the exact model (no second-order estimate with
+    stiffness)."""
+    mechanism = cantilever(f'backlash="{BACKLASH}" drive_stiffness="{DRIVE}"')
+    loads = [Torque("arm", [0.0, 0.0, torque])]
+    spring = torque / DRIVE
+    for _ in range(60):
+        spring = torque * np.cos(np.sign(torque) * BACKLASH / 2 + spring) / DRIVE
     for exact in (True, "auto"):
-        with pytest.raises(ArgumentError, match="drive"):
-            mechanism.solve([Torque("arm", [0, 0, 1.0])], gravity=False, exact=exact)
+        answer = mechanism.solve(loads, gravity=False, exact=exact)
+        assert answer.formulation == "exact" and answer.ok
+        assert answer.deflection("drive")[3] == pytest.approx(spring, rel=1e-12)
+        assert answer.torsor("drive")[3] == pytest.approx(
+            np.sign(torque) * BACKLASH / 2 + spring, rel=1e-12
+        )
+
+
+def test_the_exact_model_of_three_stiff_bearings_differs_at_second_order():
+    """The shaft's rotations are 2e-5 rad: the exact forces are the beam's F/12, F/3, 7F/12 to
+    1e-8 of F, and its statics (springs included) hold."""
+    load = PointForce("shaft", [0.0, F, 0.0], [1.5 * A, 0.0, 0.0])
+    answer = three_bearings().solve([load], gravity=False, exact=True)
+    assert answer.ok and answer.residuals.statics < 1e-10
+    expected = {"left": F / 12, "middle": F / 3, "right": 7 * F / 12}
+    for contact in answer.contacts:
+        assert -contact.force[1] == pytest.approx(expected[contact.joint], abs=1e-8 * F)
+        assert answer.deflection(contact.joint)[1] == pytest.approx(
+            expected[contact.joint] / K, rel=1e-6
+        )
 
 
 def test_the_envelope_says_it_leaves_stiffness_out():

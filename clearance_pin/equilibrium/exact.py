@@ -28,7 +28,7 @@ from ..errors import SolverError, UnboundedLoadError, UnsupportedError
 from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
-from ..model.stiffness import stiff_joints
+from ..model.stiffness import elastic
 from ..numerics import null_space
 from . import ipopt
 from .contact_split import least_norm_split
@@ -88,7 +88,11 @@ class ExactProblem:
         gauge = ca.SX.sym("gauge", n, gauge_count)
         sigma = ca.SX.sym("sigma")
 
+        # relative: each joint's play motion, what its contacts and loop conditions read; a
+        # joint with stiffness moves by its play then its spring, exp(B t) exp(D e) (the spring
+        # on the child's side), its energy 1/2 sum k_i e_i^2 (docs/method.md section 2.2.2)
         deltas, relative, turns, offset = {}, {}, {}, 0
+        spring_energy = ca.SX(0)
         for joint in mechanism.tree_joints:
             basis = tree_joint_basis(joint)
             k = basis.shape[1]
@@ -97,6 +101,12 @@ class ExactProblem:
             R_t, p_t = se3_exp(torsor)
             relative[joint.name] = (R_t, p_t)
             turns[joint.name] = torsor[3:6]  # exp coordinates: R_t's rotation vector
+            directions, stiffnesses = elastic(joint.clearance)
+            if stiffnesses.size:
+                e = x[offset : offset + stiffnesses.size]
+                offset += stiffnesses.size
+                spring_energy += 0.5 * ca.dot(ca.DM(stiffnesses), e * e)
+                R_t, p_t = compose((R_t, p_t), se3_exp(ca.mtimes(ca.DM(directions), e)))
             C = ca.DM(joint.rotation)
             deltas[joint.joint_id] = (ca.mtimes([C, R_t, C.T]), ca.mtimes(C, p_t))
         nominal = kin.joint_placements(q)
@@ -107,8 +117,15 @@ class ExactProblem:
             oMa = compose(kin.frame_placement(placed, loop.frame_a), C_a)
             oMb = compose(kin.frame_placement(placed, loop.frame_b), C_b)
             relative[loop.name] = compose(inverse(oMa), oMb)
+            directions, stiffnesses = elastic(loop.clearance)
+            if stiffnesses.size:
+                e = x[offset : offset + stiffnesses.size]
+                offset += stiffnesses.size
+                spring_energy += 0.5 * ca.dot(ca.DM(stiffnesses), e * e)
+                unsprung = se3_exp(-ca.mtimes(ca.DM(directions), e))
+                relative[loop.name] = compose(relative[loop.name], unsprung)
 
-        energy = ca.SX(0)
+        energy = spring_energy
         for body in range(1, nbody):
             params = load_params[:, body]
             R, t = placed[body]
@@ -295,12 +312,6 @@ def solve_exact_model(
     ``from_nominal``: ``linear`` is an answer that did not verify near a singular position of the
     closure (:class:`~clearance_pin.errors.NearSingularError`), no start: IPOPT starts from the
     nominal position and no contact (``linear`` is still reported as the answer's ``.linear``)."""
-    stiff = stiff_joints(mechanism.joints)
-    if stiff:
-        raise UnsupportedError(
-            f"the exact model does not include joint stiffness yet (joints {', '.join(stiff)}); "
-            "solve the small-displacement model (exact=False)"
-        )
     points = linear.output_points or resolve_outputs(mechanism, linear.loads or ())
     if linear.status == "indeterminate":  # nothing moves: the exact answer is the nominal one
         unmoved = replace(linear, formulation="exact", linear=linear, output_points=points)
@@ -315,7 +326,10 @@ def solve_exact_model(
         exact = problems[key] = ExactProblem(mechanism, problem, rows, tol)
     sigma = problem.objective_scale or 1.0
     params = ca.DM(exact.parameters(configuration, problem.scale, body_loads, problem, sigma))
-    x_linear = np.concatenate([_coordinates(linear, joint) for joint in mechanism.tree_joints])
+    x_linear = np.concatenate(
+        [_coordinates(linear, joint) for joint in mechanism.tree_joints]
+        + [_spring_coordinates(linear, loop) for loop in mechanism.loop_joints]
+    )
     z0 = np.zeros_like(x_linear) if from_nominal else x_linear / problem.scale
     solve_started = time.perf_counter()
     # the exact answer is a second-order correction of the linear one, on the same contacts:
@@ -624,7 +638,16 @@ def _settles_nearby(exact: ExactProblem, problem, z, lam, parts: ExactParts) -> 
 
 
 def _coordinates(linear: Equilibrium, joint) -> np.ndarray:
-    return tree_joint_basis(joint).T @ linear.torsors[joint.name]
+    """A tree joint's unknowns in the linear answer: its play's, then its spring's (if any)."""
+    deflection = linear.deflection(joint.name)
+    play = tree_joint_basis(joint).T @ (linear.torsors[joint.name] - deflection)
+    return np.concatenate([play, _spring_coordinates(linear, joint)])
+
+
+def _spring_coordinates(linear: Equilibrium, joint) -> np.ndarray:
+    """A joint's spring unknowns e in the linear answer, D^T (its deflection); none if rigid."""
+    directions, _ = elastic(joint.clearance)
+    return directions.T @ linear.deflection(joint.name)
 
 
 def _statics(mechanism, problem, sigma, gradient, contact_part, held_rows):
@@ -659,18 +682,32 @@ def _assemble(
     model = mechanism.model
     placed = parts.poses[: model.njoints]
     relatives = dict(zip(mechanism.joints, parts.poses[model.njoints :]))
-    torsors = {}
+    torsors, deflections = {}, {}
     x = problem.scale * z
     offset = 0
     for joint in mechanism.tree_joints:
         basis = tree_joint_basis(joint)
         torsors[joint.name] = basis @ x[offset : offset + basis.shape[1]]
         offset += basis.shape[1]
+        directions, stiffnesses = elastic(joint.clearance)
+        if stiffnesses.size:  # the play then the spring: exp(B t) exp(D e)
+            spring = directions @ x[offset : offset + stiffnesses.size]
+            offset += stiffnesses.size
+            moved = pin.exp6(pin.Motion(torsors[joint.name])) * pin.exp6(pin.Motion(spring))
+            torsors[joint.name] = np.array(pin.log6(moved).vector)
+            deflections[joint.name] = spring
     for loop in mechanism.loop_joints:
-        M = relatives[loop.name]
+        M = relatives[loop.name]  # its play
+        placement = pin.SE3(M[:, :3], M[:, 3])
+        directions, stiffnesses = elastic(loop.clearance)
+        if stiffnesses.size:  # the parts' relative motion: the play then the spring
+            spring = directions @ x[offset : offset + stiffnesses.size]
+            offset += stiffnesses.size
+            placement = placement * pin.exp6(pin.Motion(spring))
+            deflections[loop.name] = spring
         # the child's motion from its nominal place (a misaligned housing's eccentricity E),
         # at the child's clearance frame like the linear torsor: relative = E * motion
-        motion = configuration.eccentricity(loop).actInv(pin.SE3(M[:, :3], M[:, 3]))
+        motion = configuration.eccentricity(loop).actInv(placement)
         torsors[loop.name] = np.array(pin.log6(motion).vector)
     body_motions = {}
     for i in range(1, model.njoints):
@@ -789,6 +826,7 @@ def _assemble(
         ),
         mechanism=mechanism,
         configuration=configuration,
+        deflections=deflections or None,
     )
 
 

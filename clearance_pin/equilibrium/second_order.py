@@ -148,6 +148,8 @@ def estimate_difference(linear, loads, q, points) -> DifferenceEstimate:
         zero = (np.zeros(3), np.zeros(3))  # nothing moves in either model
         bounds = {p.name: (0.0, 0.0) for p in points}
         return DifferenceEstimate({p.name: zero for p in points}, bounds, True, "", 0.0)
+    if linear.deflections:
+        return _unreliable(points, "no second-order estimate with joint stiffness", 0.0)
     configuration, _maps, body_loads, problem = linear_setup(mechanism, loads, q)
     x_l = np.concatenate(
         [tree_joint_basis(j).T @ linear.torsors[j.name] for j in mechanism.tree_joints]
