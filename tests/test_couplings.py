@@ -58,6 +58,9 @@ def test_the_follower_is_held_through_its_leader():
     assert drive[3] == pytest.approx(-moment, rel=1e-12)
     assert answer.reaction("leader").drive[3] == pytest.approx(0.0, abs=1e-12)
     # the leader's motor carries m times the coupling's torque (module docstring)
+    assert answer.drive_torque("follower") == pytest.approx(-moment, rel=1e-12)
+    assert answer.motor_torques() == pytest.approx({"leader": MULTIPLIER * -moment}, rel=1e-12)
+    assert "motor of leader" in answer.table()
     turns = [q.copy() for q in np.tile(gears.q_nominal, (5, 1))]
     for k, pose in enumerate(turns):
         pose[leader] = 0.2 * k

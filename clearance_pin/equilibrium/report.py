@@ -158,11 +158,24 @@ def bearing_loads_table(equilibrium) -> list[str]:
             ]
         )
     header = ["joint", "radial [N]", "axial [N]", "transverse moment [N m]", "drive"]
-    return [
+    lines = [
         "bearing loads: the parent part on the child through each joint, clearance frame "
         "(x = joint axis), moments about the joint centre",
         *columns(header, rows),
     ]
+    couplings = getattr(equilibrium.mechanism, "couplings", ())
+    if couplings:  # a leader's motor also carries its followers' coupling torques
+        motors = equilibrium.motor_torques()
+        for coupling in couplings:
+            if coupling.leader in motors:
+                leader = equilibrium.mechanism.joints[coupling.leader]
+                unit = "N" if getattr(leader, "motion_component", None) == 0 else "N m"
+                lines.append(
+                    f"motor of {coupling.leader}: {significant(motors[coupling.leader], floor)} "
+                    f"{unit} (its drive plus {coupling.multiplier:g} x {coupling.follower}'s "
+                    "coupling torque)"
+                )
+    return lines
 
 
 def contacts_table(equilibrium) -> list[str]:

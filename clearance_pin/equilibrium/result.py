@@ -270,6 +270,41 @@ class Equilibrium:
             self.__dict__["_reactions"] = reactions
         return reactions.reaction(joint, frame)
 
+    def drive_torque(self, joint: str) -> float:
+        """The torque [N m] (force [N] for a prismatic drive) that ``joint``'s drive exerts on the
+        child about (along) the joint axis: the drive part of its reaction, or with backlash what
+        its stop holds; 0 for a joint that is not driven. A coupling's follower's is the torque
+        the coupling holds (:meth:`motor_torques` gives it to the leader)."""
+        reaction = self.reaction(joint)
+        mechanism = cast("Mechanism", self.mechanism)
+        component = 0 if getattr(mechanism.joints[joint], "motion_component", None) == 0 else 3
+        held = float(reaction.drive[component])
+        for c in self.contacts:
+            if c.joint == joint and c.point == "backlash":
+                stop = np.concatenate([c.force, np.zeros(3) if c.moment is None else c.moment])
+                held += float(stop[component])
+        return held
+
+    def motor_torques(self) -> dict[str, float]:
+        r"""Per motor (a driven joint that is no coupling's follower): the torque [N m] (force
+        [N]) it exerts, its own :meth:`drive_torque` plus, for a coupling's leader, m times each
+        follower's (virtual work of the coupling :math:`q_f = m q_l + o`:
+        :math:`\tau_l\, \delta q_l + \tau_f\, m\, \delta q_l`)."""
+        mechanism = cast("Mechanism", self.mechanism)
+        couplings = getattr(mechanism, "couplings", ())
+        followers = {c.follower for c in couplings}
+        motors = {
+            j.name: self.drive_torque(j.name)
+            for j in mechanism.tree_joints
+            if j.driven and j.name not in followers
+        }
+        for coupling in couplings:
+            if coupling.leader in motors:
+                motors[coupling.leader] += coupling.multiplier * self.drive_torque(
+                    coupling.follower
+                )
+        return motors
+
     @property
     def eccentricities(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Loop joints with a nominal eccentricity (a misaligned housing inside its play): name ->
