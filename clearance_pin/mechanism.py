@@ -489,7 +489,12 @@ class Mechanism:
         max_directions, certificate)."""
         from .envelope import envelope
 
-        _warn_stiffness_left_out(self, "the envelope is of the play")
+        _warn_stiffness_left_out(
+            self,
+            "the envelope is of the play (with springs the reach depends on the load: the "
+            "accuracy map over a load set, accuracy(output, configurations=[q], payloads=[...]), "
+            "is its envelope)",
+        )
         return envelope(self, output, q=q, exact=exact, **options)
 
     def accuracy(self, output: str, configurations, payloads=(0.0,), gravity=None):
@@ -539,8 +544,7 @@ def _warn_stiffness_left_out(mechanism: Mechanism, what: str) -> None:
     if stiff:
         warnings.warn(
             StiffnessLeftOutWarning(
-                f"{mechanism.name}: {what}: the stiffness of {', '.join(stiff)} is left out "
-                "(solve gives the equilibrium with it)"
+                f"{mechanism.name}: the stiffness of {', '.join(stiff)} is left out: {what}"
             ),
             stacklevel=3,
         )

@@ -401,3 +401,25 @@ def test_the_engineer_reads_the_springs_part_in_the_report_and_the_json(tmp_path
     torsor = document["equilibrium"]["torsors"]["drive"]
     assert torsor["spring_rotation_rad"][0] == pytest.approx(2.0 / DRIVE, rel=1e-12)
     assert torsor["rotation_rad"][0] == pytest.approx(BACKLASH / 2 + 2.0 / DRIVE, rel=1e-12)
+
+
+def test_with_springs_the_envelope_of_a_load_set_is_the_accuracy_map_at_one_pose():
+    """A shaft on three stiff bearings, loads of 300 N across it at x = a/2 in four directions:
+    the map at the nominal pose gives each case's displacement of the frame shaft_end (at the
+    right bearing, x = a): by the beam on springs, each bearing moves by c + F_i/k along the
+    load, on a line: from the left bearing's c + F/12/k, its slope (7F/12 - F/12)/k over 2a,
+    times 2a."""
+    mechanism = three_bearings()
+    cases = [
+        [PointForce("shaft", force, [1.5 * A, 0.0, 0.0])]
+        for force in ([0, F, 0], [0, -F, 0], [0, 0, F], [0, 0, -F])
+    ]
+    amap = mechanism.accuracy("shaft_end", configurations=[mechanism.q_nominal], payloads=cases)
+    assert amap.ok.all()
+    left = PLAY + F / 12 / K
+    tilt = (7 * F / 12 - F / 12) / K / (2 * A)  # [rad]
+    reach = left + tilt * 2 * A  # the right bearing is 2a from the left one
+    expected = [[0, reach, 0], [0, -reach, 0], [0, 0, reach], [0, 0, -reach]]
+    assert amap.translation[0] == pytest.approx(np.array(expected), abs=1e-12)
+    largest, _, _ = amap.largest()
+    assert largest == pytest.approx(reach, rel=1e-9)
