@@ -78,9 +78,37 @@ def test_a_coupling_deadband_is_the_followers_backlash():
     assert answer.ok and answer.torsor("follower")[3] == pytest.approx(0.002, abs=1e-12)
 
 
-def test_a_passive_leader_and_a_contradicting_q_are_refused():
-    with pytest.raises(cp.ModelError, match="leader 'leader' is not driven"):
-        cp.loads(gear_pair(leader=""))
+@pytest.mark.parametrize("exact", [False, True])
+def test_a_passive_leader_ties_two_free_joints(exact):
+    """Leader and follower both free, tied by the coupling dq_f = m dq_l: the lever's moment M
+    on the follower is balanced through the coupling by a torque T = -m M on the leader's body
+    (virtual work T dq_l + M m dq_l = 0, by hand); the coupling holds -M on the follower and
+    m M on the leader (its reaction: mu and -m mu, mu = -M). An unbalanced torque works along
+    the tied motion: no equilibrium."""
+    angle = MULTIPLIER * 0.4 + OFFSET
+    moment = LEVER * FORCE * np.cos(angle)  # the follower's lever, about z
+    balance = f'<torque link="pinion" value="0 0 {float(-MULTIPLIER * moment)!r}"/>'
+    gears = cp.loads(gear_pair(leader="").replace("</clearance_pin>", balance + "</clearance_pin>"))
+    assert not any(j.driven for j in gears.tree_joints)
+    answer = gears.solve(gravity=False, exact=exact)
+    assert answer.ok
+    assert answer.reaction("follower").drive[3] == pytest.approx(-moment, rel=1e-9)
+    assert answer.reaction("leader").drive[3] == pytest.approx(MULTIPLIER * moment, rel=1e-9)
+    assert answer.reaction("follower").residual < 1e-12
+    assert answer.motor_torques() == {}  # no motor: both joints passive
+    # the tied motion keeps the coupling (its play aside): both turn together or not at all
+    spin_f, spin_l = answer.torsor("follower")[3], answer.torsor("leader")[3]
+    assert spin_f == pytest.approx(MULTIPLIER * spin_l, abs=1e-12)
+    unbalanced = gear_pair(leader="").replace(
+        "</clearance_pin>", '<torque link="pinion" value="0 0 1.0"/></clearance_pin>'
+    )
+    with pytest.raises(cp.UnboundedLoadError, match="leader|follower"):
+        cp.loads(unbalanced).solve(gravity=False)
+
+
+def test_a_passive_leader_s_driven_follower_and_a_contradicting_q_are_refused():
+    with pytest.raises(cp.ModelError, match="leader 'leader' is not driven, so it is not"):
+        cp.loads(gear_pair(leader="", extra='driven="true"'))
     with pytest.raises(cp.ModelError, match="differs from its <mimic>"):
         cp.loads(gear_pair(extra='q="0.7"'))
 

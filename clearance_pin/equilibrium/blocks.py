@@ -190,8 +190,8 @@ def _build(geometry: ReducedGeometry) -> BlockStructure | None:
     stack = geometry.stack
     scale = geometry.scale
     n = scale.size
-    if not contacts or np.any(stack.offset != 0.0):
-        return None
+    if not contacts or np.any(stack.offset != 0.0) or geometry.equalities.size:
+        return None  # closure equations (a passive coupling's) tie the joints: no blocks
     rows = np.vstack([c.rows for c in contacts])
     row_bound = np.concatenate([np.full(c.rows.shape[0], c.contact.bound) for c in contacts])
     groups = _groups([np.flatnonzero(np.any(c.rows != 0.0, axis=0)) for c in contacts])

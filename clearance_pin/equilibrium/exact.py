@@ -28,6 +28,7 @@ from ..errors import SolverError, UnboundedLoadError, UnsupportedError
 from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
+from ..model.couplings import passive
 from ..model.stiffness import elastic
 from ..numerics import null_space
 from . import ipopt
@@ -92,10 +93,15 @@ class ExactProblem:
         # joint with stiffness moves by its play then its spring, exp(B t) exp(D e) (the spring
         # on the child's side), its energy 1/2 sum k_i e_i^2 (docs/method.md section 2.2.2)
         deltas, relative, turns, offset = {}, {}, {}, 0
+        motions = {}  # per tree joint, its own motion's exp coordinate (a coupling reads it)
         spring_energy = ca.SX(0)
         for joint in mechanism.tree_joints:
             basis = tree_joint_basis(joint)
             k = basis.shape[1]
+            if joint.motion_component is not None and k:
+                along = basis[joint.motion_component]
+                if np.count_nonzero(along) == 1 and along.max() == 1.0:
+                    motions[joint.name] = x[offset + int(np.argmax(along))]
             torsor = ca.mtimes(ca.DM(basis), x[offset : offset + k]) if k else ca.SX.zeros(6)
             offset += k
             R_t, p_t = se3_exp(torsor)
@@ -146,6 +152,9 @@ class ExactProblem:
             else:
                 inequality.append(selected / bounds[j])
         equality = _loop_equalities(mechanism, relative)
+        for coupling in passive(mechanism.couplings, mechanism.joints):  # after the loops'
+            leader = motions[coupling.leader]
+            equality.append(motions[coupling.follower] - coupling.multiplier * leader)
         kept = [equality[i] for i in equality_rows]
         constraints = ca.vertcat(*inequality, *kept, ca.mtimes(gauge.T, z))
         self.shapes = [point.shape for _, point in contacts]

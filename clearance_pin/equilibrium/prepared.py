@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..model.couplings import passive
 from ..model.loads import Gravity
 from ..numerics import column_space, null_space
 from .cache import GRAVITIES_KEPT, LeastRecentlyUsed
@@ -450,11 +451,14 @@ def _reduced(mechanism, maps: SmallDisplacementMaps) -> ReducedGeometry:
     """The reduction at the configuration of ``maps``; without loop joints it is the same at every
     configuration (the unknowns are the joints' own torsors and each contact reads its own joint's
     torsor, so no constraint depends on where the parts are), so it is done once."""
+    couplings = passive(mechanism.couplings, mechanism.joints)
     if mechanism.loop_joints:
-        return reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
+        return reduce_geometry(maps, mechanism.joints, mechanism.length_scale(), couplings)
     cache = mechanism.cache
     if cache.tree_geometry is None:
-        cache.tree_geometry = reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
+        cache.tree_geometry = reduce_geometry(
+            maps, mechanism.joints, mechanism.length_scale(), couplings
+        )
     return cache.tree_geometry
 
 

@@ -55,6 +55,7 @@ import pinocchio as pin
 
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.clearance import ALPHA, BETA, GAMMA
+from ..model.couplings import passive
 from ..model.stiffness import elastic
 from ..numerics import null_space
 from .load_terms import gather_body_loads
@@ -189,13 +190,23 @@ def joint_reactions(equilibrium) -> JointReactions:
     columns, owners = [], []  # generator wrenches at the world origin, (joint, part) of each
     locals_ = []  # and in the joint's own frame
     held = exact and equilibrium.residuals.get("held_by_gauge", 0.0) > 0.0
+    couplings = passive(getattr(mechanism, "couplings", ()), mechanism.joints)
+    tied = {name for c in couplings for name in (c.follower, c.leader)}  # the coupling holds
     for name, joint in mechanism.joints.items():
-        for part, local, placement in _generators(joint, frames[name], exact, held):
+        for part, local, placement in _generators(joint, frames[name], exact, held, tied):
             for column in local.T:
                 columns.append(placement.act(pin.Force(column)).vector)
                 owners.append((name, part))
                 locals_.append(column)
     springs = _spring_equations(mechanism, equilibrium, joint_frames, contact, owners, locals_)
+    # a passive coupling's reaction: mu about the follower's axis, -m mu about the leader's
+    paired = [
+        tuple(
+            (name, sign * _motion_wrench(mechanism.joints[name], frames[name]))
+            for name, sign in ((c.follower, 1.0), (c.leader, -c.multiplier))
+        )
+        for c in couplings
+    ]
 
     # body equations at each body's own origin, moments over L_ref: forces and moments compare
     origins = [placements[b].translation for b in range(bodies)]
@@ -222,8 +233,14 @@ def joint_reactions(equilibrium) -> JointReactions:
     if reference == 0.0:
         reference = float(np.linalg.norm(known.reshape(-1, 6), axis=1).sum())
 
-    matrix = np.array([scatter(c, name) for c, (name, _) in zip(columns, owners)]).T
-    matrix = matrix.reshape(6 * (bodies - 1), len(columns))
+    matrix = np.array(
+        [scatter(c, name) for c, (name, _) in zip(columns, owners)]
+        + [sum(scatter(w, name) for name, w in pair) for pair in paired]
+    ).T
+    matrix = matrix.reshape(6 * (bodies - 1), len(columns) + len(paired))
+    if springs is not None and paired:  # the couplings' columns in no spring's equation
+        springs = (np.hstack([springs[0], np.zeros((springs[0].shape[0], len(paired)))]),
+                   springs[1])  # fmt: skip
     if matrix.shape[1]:
         sizes = np.linalg.norm(matrix, axis=0)
         sizes[sizes == 0.0] = 1.0
@@ -237,9 +254,18 @@ def joint_reactions(equilibrium) -> JointReactions:
     parts = {part: {name: np.zeros(6) for name in mechanism.joints} for part in PARTS}
     for column, (name, part), value in zip(columns, owners, solution):
         parts[part][name] += value * column
+    for pair, value in zip(paired, solution[len(columns) :]):
+        for name, wrench in pair:  # what the coupling holds: as a drive would
+            parts["drive"][name] += value * wrench
     return JointReactions(
         contact, parts["rigid"], parts["drive"], parts["held"], joint_frames, float(residual)
     )
+
+
+def _motion_wrench(joint, frames) -> np.ndarray:
+    """A unit torque (force) on a tree joint's child about (along) its axis, at the world
+    origin (the clearance frame's x is the joint axis)."""
+    return frames.child.act(pin.Force(np.eye(6)[joint.motion_component])).vector
 
 
 def _spring_equations(mechanism, equilibrium, joint_frames, contact, owners, locals_):
@@ -312,15 +338,16 @@ def _body_wrenches(mechanism, loads, placements, nominal_oMi, exact: bool) -> di
     return wrenches
 
 
-def _generators(joint, frames, exact: bool, held: bool = False):
+def _generators(joint, frames, exact: bool, held: bool = False, tied=frozenset()):
     """(part, local wrenches (6, k), placement of the frame they are written in) of a joint's
-    rigid directions and drive, and with ``held`` of its own free motions (module docstring)."""
+    rigid directions and drive, and with ``held`` of its own free motions (module docstring)
+    but the motion of a joint a passive coupling ties (``tied``: the coupling holds it)."""
     if hasattr(joint, "joint_id"):
-        return _tree_generators(joint, frames, exact, held)
+        return _tree_generators(joint, frames, exact, held, joint.name in tied)
     return _loop_generators(joint, frames, exact)
 
 
-def _tree_generators(joint, frames, exact: bool, held: bool = False):
+def _tree_generators(joint, frames, exact: bool, held: bool = False, tied: bool = False):
     basis = tree_joint_basis(joint)
     drive = []
     for component in joint.locked_components:
@@ -334,6 +361,8 @@ def _tree_generators(joint, frames, exact: bool, held: bool = False):
     dual = pin.Jlog6(frames.relative).T
     generators = [("rigid", dual @ rigid, frames.child), ("drive", dual @ drives, frames.child)]
     free = [c for c in joint.clearance.free_components if c not in joint.locked_components]
+    if tied:
+        free = [c for c in free if c != joint.motion_component]
     if held and free:
         generators.append(("held", dual @ np.eye(6)[:, free], frames.child))
     return generators

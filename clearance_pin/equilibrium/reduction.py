@@ -40,6 +40,7 @@ import numpy as np
 from ..errors import UnboundedLoadError
 from ..kinematics.loop_frames import nominal_offsets
 from ..model.clearance import COMPONENT_MEANING, COMPONENT_NAMES, ContactPoint
+from ..model.couplings import Coupling
 from ..numerics import norm, row_spaces
 from .kkt import StackedContacts
 from .lazy import LazySequence
@@ -295,17 +296,30 @@ def _column_blocks(touched: np.ndarray, where: np.ndarray, d: int) -> np.ndarray
 
 
 def reduce_geometry(
-    maps: SmallDisplacementMaps, joints: dict, length_scale: float
+    maps: SmallDisplacementMaps,
+    joints: dict,
+    length_scale: float,
+    couplings: tuple[Coupling, ...] = (),
 ) -> ReducedGeometry:
-    """Steps 1-3 of the reduction, which do not depend on the load.
+    r"""Steps 1-3 of the reduction, which do not depend on the load.
 
     Args:
         maps: linear maps at the nominal configuration.
         joints: joint name -> TreeJoint or LoopJoint (tree joints first, in tree order).
         length_scale: characteristic length of the mechanism L_ref [m], for rotation scales.
+        couplings: the couplings of passive leaders (:func:`~..model.couplings.passive`):
+            each a closure equation :math:`\delta q_f - m\, \delta q_l = 0` on the two joints'
+            motions, after the loops' (the exact model writes them in the same order).
     """
     n = maps.size
     contacts, equality_rows, equality_joints = _constraints(maps, joints)
+    for coupling in couplings:
+        follower, leader = joints[coupling.follower], joints[coupling.leader]
+        equality_rows.append(
+            maps.play_torsor[follower.name][follower.motion_component]
+            - coupling.multiplier * maps.play_torsor[leader.name][leader.motion_component]
+        )
+        equality_joints.append(follower.name)
     scale = _variable_scales(maps, joints, contacts, length_scale)
     equalities = np.array(equality_rows, dtype=float).reshape(len(equality_rows), n)
     normalised = _normalised_equalities(maps, equalities, equality_joints, scale)

@@ -58,6 +58,7 @@ import pinocchio as pin
 
 from ..errors import UnsupportedError
 from ..model.clearance import ALPHA, BETA, GAMMA
+from ..model.couplings import passive
 from .poses import clearance_frames
 from .prepared import linear_setup
 from .small_displacement import tree_joint_basis
@@ -150,6 +151,8 @@ def estimate_difference(linear, loads, q, points) -> DifferenceEstimate:
         return DifferenceEstimate({p.name: zero for p in points}, bounds, True, "", 0.0)
     if linear.deflections:
         return _unreliable(points, "no second-order estimate with joint stiffness", 0.0)
+    if passive(mechanism.couplings, mechanism.joints):
+        return _unreliable(points, "no second-order estimate with a passive coupling", 0.0)
     configuration, _maps, body_loads, problem = linear_setup(mechanism, loads, q)
     x_l = np.concatenate(
         [tree_joint_basis(j).T @ linear.torsors[j.name] for j in mechanism.tree_joints]

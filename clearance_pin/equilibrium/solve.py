@@ -23,6 +23,7 @@ from ..errors import (
     SolverError,
     UnboundedLoadError,
 )
+from ..model.couplings import passive
 from ..numerics import norm
 from .block_verify import closed_form_answer
 from .blocks import block_structure
@@ -262,7 +263,8 @@ def _singular_position(mechanism, prepared: PreparedGeometry) -> bool:
         data = mechanism.cache.data  # this thread's
         pin.framesForwardKinematics(model, data, configuration.q)
         maps = build_maps(model, data, mechanism.tree_joints, mechanism.loop_joints, configuration)
-        there = reduce_geometry(maps, mechanism.joints, mechanism.length_scale())
+        couplings = passive(mechanism.couplings, mechanism.joints)
+        there = reduce_geometry(maps, mechanism.joints, mechanism.length_scale(), couplings)
     except (ClearancePinError, ValueError, np.linalg.LinAlgError):
         return False  # undecided: the general diagnosis stands
     return there.free_motions.shape[1] < prepared.geometry.free_motions.shape[1]

@@ -406,16 +406,27 @@ class _BlockReader:
         defaults = self._defaults()
         q = drawn_configuration(model)
         joints = []
-        followers = {c.follower for c in self.joints.couplings}
+
+        def element_of(name: str) -> ET.Element | None:
+            joint_type = self.joints.types.get(name)
+            default = None if name in self.locked else defaults.get(joint_type or "")
+            if default is None and joint_type == "continuous" and name not in self.locked:
+                default = defaults.get("revolute")
+            return _with_default(name, declared.get(name), default)
+
+        # a follower is held through its leader's drive; a passive leader's follower is passive
+        # too, the coupling a condition between the two joints' motions (:mod:`.couplings`)
+        followers = {
+            c.follower
+            for c in self.joints.couplings
+            if _boolean(self.source, element_of(c.leader), "driven", False)
+        }
         for joint_id in range(1, model.njoints):
             name = model.names[joint_id]
             joint_type = self.joints.types.get(name)
             pin_joint = model.joints[joint_id]
             shortname = pin_joint.shortname()
-            default = None if name in self.locked else defaults.get(joint_type or "")
-            if default is None and joint_type == "continuous" and name not in self.locked:
-                default = defaults.get("revolute")
-            element = _with_default(name, declared.get(name), default)
+            element = element_of(name)
             label = _label(element) if element is not None else f"<joint name='{name}'>"
             if shortname == "JointModelMimic":
                 raise ModelError(
@@ -490,13 +501,14 @@ class _BlockReader:
                     raise ModelError(
                         self.source, label, f"{role!r} is no revolute or prismatic joint"
                     )
-            if not by_name[coupling.leader].driven:
+            follower = by_name[coupling.follower]
+            if not by_name[coupling.leader].driven and follower.driven:
                 raise ModelError(
                     self.source,
-                    label,
-                    f"the leader {coupling.leader!r} is not driven: a follower is held through "
-                    f'its leader\'s drive; drive it (driven="true") or lock it, or remove the '
-                    "<mimic> (an independent joint); a passive leader's coupling is not modelled",
+                    f"<joint name='{coupling.follower}'>",
+                    f"its leader {coupling.leader!r} is not driven, so it is not either: the "
+                    "coupling holds it to its passive leader; drive the leader instead "
+                    '(driven="true") or remove driven',
                 )
         placed = coupled(self.model, couplings, q)
         for coupling in couplings:

@@ -7,13 +7,19 @@ driven joint (its own bearing play, if any, still acts; a ``backlash`` on the fo
 coupling's deadband). The torque the coupling holds on the follower is its reported drive torque;
 the leader's motor carries :math:`m` times it besides its own (virtual work of the coupling:
 :math:`\tau_l\, \delta q_l + \tau_f\, m\, \delta q_l`).
+
+A passive leader (not driven) leaves both joints free but tied: the coupling is the condition
+:math:`\delta q_f = m\, \delta q_l` on their motions (a closure equation of the
+small-displacement model, :mod:`clearance_pin.equilibrium.reduction`), its reaction a torque
+:math:`\mu` on the follower and :math:`-m\mu` on the leader (a gear mesh's).
 """
 
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -41,6 +47,11 @@ class Coupling:
         follower = drawn[model.joints[model.getJointId(self.follower)].idx_q]
         offset = self.offset + follower - self.multiplier * leader
         return Coupling(self.follower, self.leader, self.multiplier, float(offset))
+
+
+def passive(couplings: Iterable[Coupling], joints: Mapping[str, Any]) -> tuple[Coupling, ...]:
+    """The couplings whose leader is not driven (joint name -> TreeJoint ``joints``)."""
+    return tuple(c for c in couplings if not joints[c.leader].driven)
 
 
 def urdf_couplings(source: str, joints: Iterable[ET.Element]) -> tuple[Coupling, ...]:
@@ -80,4 +91,4 @@ def coupled(model: pin.Model, couplings: tuple[Coupling, ...], q: np.ndarray) ->
     return q
 
 
-__all__ = ["Coupling", "coupled", "urdf_couplings"]
+__all__ = ["Coupling", "coupled", "passive", "urdf_couplings"]
