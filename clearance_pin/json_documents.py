@@ -3,8 +3,10 @@
 Every document carries ``"schema": "clearance_pin/<kind>/<version>"``; its schema is shipped in
 the package (``clearance_pin/schemas/<kind>-<version>.json``, :func:`schema`). Quantities carry an
 SI unit suffix (``_m``, ``_rad``, ``_N``, ``_N_m``, ``_J``, ``_s``); every vector names its frame.
-Kinds: ``solve`` (an equilibrium, its linear answer, the check), ``error`` (a failure: what went
-wrong and the exit status). Version 1 replaces the unversioned ``solve --json`` of before.
+Kinds: ``solve`` (an equilibrium, its linear answer, the check), ``envelope`` (the clearance
+envelope of each output), ``tolerance`` (a tolerance sweep, :mod:`.tolerance.command`),
+``accuracy`` (an accuracy map's summary), ``error`` (a failure: what went wrong and the exit
+status). Version 1 replaces the unversioned documents of before.
 """
 
 from __future__ import annotations
@@ -19,7 +21,11 @@ import numpy as np
 from .equilibrium.outputs import resolve_outputs
 
 SOLVE_SCHEMA = "clearance_pin/solve/1"
+ENVELOPE_SCHEMA = "clearance_pin/envelope/1"
+TOLERANCE_SCHEMA = "clearance_pin/tolerance/1"
+ACCURACY_SCHEMA = "clearance_pin/accuracy/1"
 ERROR_SCHEMA = "clearance_pin/error/1"
+UNITS = {"translation": "m", "rotation": "rad"}
 
 
 @cache
@@ -152,6 +158,77 @@ def solve_document(
     return document
 
 
+def envelope_document(model: str, envelopes: Any) -> dict[str, Any]:
+    """The ``envelope`` document (:data:`ENVELOPE_SCHEMA`): per output, per kind (translation
+    [m], rotation [rad]) the certified largest deviation (its bounds, the state and load direction
+    that reach it) and the ranges along the world's and the output frame's axes (null: unbounded
+    along a free direction)."""
+    return {
+        "schema": ENVELOPE_SCHEMA,
+        "model": model,
+        "envelopes": [_envelope(envelope) for envelope in envelopes],
+    }
+
+
+def _envelope(envelope: Any) -> dict[str, Any]:
+    output = envelope.output
+    kinds = {}
+    for kind, part in envelope.kinds.items():
+        unit = UNITS[kind]
+        extreme = part.maximum
+        entry: dict[str, Any] = {
+            "span": [_vector(v) for v in part.basis.T],
+            "free_directions": [_vector(v) for v in part.free.T],
+            "unbounded": bool(part.free.shape[1]),
+            f"largest_lower_{unit}": float(extreme.lower),
+            f"largest_upper_{unit}": float(extreme.upper),
+            "relative_gap": float(extreme.gap),
+            "certified": bool(extreme.certified),
+            "method": extreme.method,
+            "directions": int(extreme.directions),
+            f"deviation_{unit}": _vector(extreme.deviation),
+            "load_direction": _vector(extreme.direction),
+            "frame": "world",
+            "contacts": list(extreme.contacts),
+            f"world_ranges_{unit}": _ranges(part.world),
+            f"output_frame_ranges_{unit}": _ranges(part.frame),
+        }
+        if envelope.exact is not None and kind in envelope.exact:
+            exact = envelope.exact[kind]
+            entry["exact"] = {
+                f"largest_{unit}": float(exact.largest),
+                f"linear_largest_{unit}": float(exact.linear_largest),
+                f"deviation_{unit}": _vector(exact.deviation),
+                "load_direction": _vector(exact.direction),
+                f"world_ranges_{unit}": _ranges(exact.world),
+                f"output_frame_ranges_{unit}": _ranges(exact.frame),
+                "certified": False,
+            }
+        kinds[kind] = entry
+    return {
+        "mechanism": envelope.mechanism_name,
+        "output": {
+            "name": output.name,
+            "link": output.link,
+            "point_m": _vector(output.point),
+            "point_frame": f"link {output.link}",
+            "nominal_world_position_m": _vector(output.position),
+        },
+        "q": _vector(envelope.q),
+        "relative_tolerance": float(envelope.tol),
+        "kinds": kinds,
+        "timings_s": {key: float(value) for key, value in envelope.timings.items()},
+    }
+
+
+def _ranges(ranges: Any) -> dict[str, list[float | None]]:
+    """Axis name -> [min, max] (None for an unbounded side: JSON has no infinity)."""
+    return {
+        axis: [float(v) if np.isfinite(v) else None for v in row]
+        for axis, row in zip("xyz", np.asarray(ranges, dtype=float))
+    }
+
+
 def error_document(
     command: str, model: str | None, error: str, message: str, status: int
 ) -> dict[str, Any]:
@@ -166,4 +243,14 @@ def error_document(
     }
 
 
-__all__ = ["ERROR_SCHEMA", "SOLVE_SCHEMA", "error_document", "schema", "solve_document"]
+__all__ = [
+    "ACCURACY_SCHEMA",
+    "ENVELOPE_SCHEMA",
+    "ERROR_SCHEMA",
+    "SOLVE_SCHEMA",
+    "TOLERANCE_SCHEMA",
+    "envelope_document",
+    "error_document",
+    "schema",
+    "solve_document",
+]

@@ -102,7 +102,7 @@ def test_a_passive_leader_ties_two_free_joints(exact):
     unbalanced = gear_pair(leader="").replace(
         "</clearance_pin>", '<torque link="pinion" value="0 0 1.0"/></clearance_pin>'
     )
-    with pytest.raises(cp.UnboundedLoadError, match="leader|follower"):
+    with pytest.raises(cp.UnboundedLoadError, match=r"leader|follower"):
         cp.loads(unbalanced).solve(gravity=False)
 
 

@@ -423,3 +423,58 @@ def test_with_springs_the_envelope_of_a_load_set_is_the_accuracy_map_at_one_pose
     assert amap.translation[0] == pytest.approx(np.array(expected), abs=1e-12)
     largest, _, _ = amap.largest()
     assert largest == pytest.approx(reach, rel=1e-9)
+
+
+def test_ur5_soft_drives_exact_model_against_pinocchio_fixed_point():
+    """The UR5 as shipped, soft drives only (no play: 2e3 .. 3e2 N m/rad, rotations of 0.03 rad),
+    a force F at tool0: the exact model's spring deflections e solve K e = J(q + e)^T F (dead
+    load at the moved tool, Pinocchio's own Jacobian at the deflected pose, fixed-point iteration
+    here), and its tool position is Pinocchio's at q + e; the linear answer is off by 0.5 mm.
+    No play: the springs alone answer (closed form), not 'no load'."""
+    from test_auto_bound import example_robot_urdf
+
+    urdf = example_robot_urdf("ur_description/urdf/ur5_robot.urdf")
+    joints = [f"{j}_joint" for j in ("shoulder_pan", "shoulder_lift", "elbow")] + [
+        f"wrist_{i}_joint" for i in (1, 2, 3)
+    ]
+    stiffness = np.array([2e3, 2e3, 1e3, 3e2, 3e2, 3e2])
+    q = np.array([0.3, -1.2, 1.4, -0.8, 1.1, 0.4])
+    block = "".join(
+        f'<joint name="{j}" driven="true" q="{float(v)!r}" drive_stiffness="{float(k)!r}"/>'
+        for j, k, v in zip(joints, stiffness, q)
+    )
+    mechanism = cp.loads(
+        urdf.replace("</robot>", f"<clearance_pin>{block}</clearance_pin></robot>")
+    )
+    force = np.array([30.0, -20.0, 50.0])
+    loads = [PointForce("tool0", force, [0.0, 0.0, 0.0])]
+    linear = mechanism.solve(loads, gravity=False)
+    assert linear.status == "optimal" and linear.method is cp.Method.CLOSED_FORM
+    exact = mechanism.solve(loads, gravity=False, exact=True)
+    assert exact.ok
+
+    model = pin.buildModelFromXML(urdf)
+    data = model.createData()
+    columns = [model.joints[model.getJointId(name)].idx_v for name in joints]
+    frame = model.getFrameId("tool0")
+
+    def placed(offsets):
+        configuration = pin.neutral(model)
+        for name, value in zip(joints, q + offsets):
+            configuration[model.joints[model.getJointId(name)].idx_q] = value
+        return configuration
+
+    springs = np.zeros(6)
+    for _ in range(200):
+        jacobian = pin.computeFrameJacobian(
+            model, data, placed(springs), frame, pin.LOCAL_WORLD_ALIGNED
+        )[:3, columns]
+        springs = (jacobian.T @ force) / stiffness
+    pin.framesForwardKinematics(model, data, placed(springs))
+    tool = data.oMf[frame].translation.copy()
+    solved = np.array([exact.deflection(name)[3] for name in joints])
+    assert solved == pytest.approx(springs, rel=1e-8, abs=1e-14)
+    assert exact.frame_placement("tool0").translation == pytest.approx(tool, abs=1e-10)
+    pin.framesForwardKinematics(model, data, placed(np.zeros(6)))
+    moved = linear.frame_displacement("tool0").linear
+    assert np.linalg.norm(data.oMf[frame].translation + moved - tool) > 1e-4

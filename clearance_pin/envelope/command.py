@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from ..commands import NO_EQUILIBRIUM, add_model_arguments, model_options
+from ..json_documents import envelope_document
 from . import envelope
 from .result import Envelope
 
@@ -87,10 +88,7 @@ def run(args: argparse.Namespace) -> int:
             plot_envelope(result, target)
             print(f"plot written to {target}")
     if args.json:
-        document = {
-            "model": str(args.model),
-            "envelopes": [result.to_dict() for result in results],
-        }
+        document = envelope_document(str(args.model), results)
         args.json.write_text(json.dumps(document, indent=1))
         print(f"JSON written to {args.json}")
     unbounded = [

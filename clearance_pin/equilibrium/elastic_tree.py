@@ -22,6 +22,7 @@ import numpy as np
 
 from ..model.stiffness import elastic
 from .linear_answer import answer_of_x
+from .method import Method
 from .prepared import PreparedGeometry
 from .result import Equilibrium
 from .small_displacement import tree_joint_basis
@@ -52,6 +53,14 @@ def superposed(mechanism, prepared: PreparedGeometry, loads, play: Equilibrium, 
     force_rows = forces.reshape(-1)[prepared.terms.scatter]
     gaps, _ = prepared.contact_state(x, np.zeros(len(contacts)), np.ones(len(contacts)), 0.0)
     residuals = {name: play.residuals[name] for name in KKT if name in play.residuals}
+    status, method, solver_status = play.status, play.method, play.solver_status
+    if status == "indeterminate" and np.any(x[elastic]):
+        # nothing moves in the play (none, or no load on it) but the springs deflect: answered
+        # by the springs' closed form alone
+        status, method = "optimal", Method.CLOSED_FORM
+        solver_status = f"springs alone ({solver_status} in the play)"
+    else:
+        solver_status = f"{solver_status}; springs by superposition (a tree)"
     answer = answer_of_x(
         prepared,
         problem,
@@ -59,9 +68,9 @@ def superposed(mechanism, prepared: PreparedGeometry, loads, play: Equilibrium, 
         gaps,
         force_rows,
         carried,
-        play.status,
-        play.method,
-        f"{play.solver_status}; springs by superposition (a tree)",
+        status,
+        method,
+        solver_status,
         play.iterations,
         play.polished,
         play.build_time,
