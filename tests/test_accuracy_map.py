@@ -124,10 +124,16 @@ def test_the_command_line(tmp_path, capsys):
     model = str(MODELS / "arm_6r.urdf")
     out = tmp_path / "map.json"
     status = main(["accuracy", model, "--output", "tool", "--poses", "40", "--payload", "0",
-                   "--payload", "3", "--json", str(out), "--plot", str(tmp_path / "map.png")])  # fmt: skip
+                   "--payload", "3", "--json", str(out), "--poses-json",
+                   "--plot", str(tmp_path / "map.png")])  # fmt: skip
     assert status == 0
     assert "what moves the output most" in capsys.readouterr().out
     document = json.loads(out.read_text())
+    jsonschema = pytest.importorskip("jsonschema")
+    from clearance_pin.json_documents import schema
+
+    jsonschema.validate(document, schema("accuracy"))
+    assert document["schema"] == "clearance_pin/accuracy/1"
     arm = cp.load(model)
     amap = arm.accuracy("tool", random_poses(arm, 40, 0.5, 0), payloads=[0.0, 3.0])
     assert document["largest_translation_m"] == pytest.approx(amap.largest()[0], rel=1e-12)

@@ -23,6 +23,7 @@ from conftest import MODELS, one_line, run_command
 import clearance_pin as cp
 from clearance_pin.cli import main
 from clearance_pin.errors import SolverError
+from clearance_pin.json_documents import schema
 from clearance_pin.mechanism import Mechanism
 
 PENDULUM = MODELS / "double_pendulum.urdf"
@@ -257,16 +258,21 @@ def test_tolerance_bands_are_flores_closed_form(tmp_path, capsys):
     assert status == 0 and err == ""
     assert "tip.x" in out and f"JSON written to {report}" in out
     document = json.loads(report.read_text())
-    half = {d["name"]: d["half_tolerance"] for d in document["dimensions"]}
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(document, schema("tolerance"))
+    half = {
+        d["name"]: d.get("half_tolerance_m", d.get("half_tolerance_rad"))
+        for d in document["dimensions"]
+    }
     assert half == pytest.approx({"l1": 65e-6, "l2": 57.5e-6, "a2": 5e-4}, rel=1e-12)
-    phi = np.radians(document["phi_deg"])
+    phi = np.array(document["parameter_rad"])
     elbow = math.pi / 4
     expected = (
         np.abs(np.cos(phi)) * half["l1"]
         + np.abs(np.cos(phi + elbow)) * half["l2"]
         + np.abs(0.2 * np.sin(phi + elbow)) * half["a2"]
     )
-    np.testing.assert_allclose(document["outputs"]["tip.x"]["worst"], expected, rtol=1e-9)
+    np.testing.assert_allclose(document["outputs"]["tip.x"]["worst_m"], expected, rtol=1e-9)
 
 
 def test_tolerance_unknown_output_exits_2_listing_the_frames(capsys):
@@ -366,8 +372,8 @@ def test_envelope_and_tolerance_read_a_clearance_file_beside_the_model(tmp_path,
         "--kind", "translation", "--json", written,
     )  # fmt: skip
     assert status == 0, err
-    maximum = json.loads(written.read_text())["envelopes"][0]["kinds"]["translation"]["maximum"]
-    assert maximum["upper"] == pytest.approx(50e-6, rel=1e-6)
+    translation = json.loads(written.read_text())["envelopes"][0]["kinds"]["translation"]
+    assert translation["largest_upper_m"] == pytest.approx(50e-6, rel=1e-6)
     urdf, clearances = _beside(tmp_path, PENDULUM)
     options = ["--joint", "shoulder", "--output", "tip.x", "--positions", "5", "--samples", "0",
                "--no-maxima"]  # fmt: skip
@@ -376,7 +382,7 @@ def test_envelope_and_tolerance_read_a_clearance_file_beside_the_model(tmp_path,
         report = tmp_path / "bands.json"
         status, _, err = run_command(capsys, "tolerance", *arguments, *options, "--json", report)
         assert status == 0, err
-        bands.append(json.loads(report.read_text())["outputs"]["tip.x"]["worst"])
+        bands.append(json.loads(report.read_text())["outputs"]["tip.x"]["worst_m"])
     np.testing.assert_allclose(bands[0], bands[1], rtol=1e-12)
 
 

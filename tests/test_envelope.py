@@ -38,6 +38,7 @@ from clearance_pin.envelope import envelope
 from clearance_pin.envelope.certificate import multiplier_bound
 from clearance_pin.envelope.loads import LoadSpread, deviation_range, usage
 from clearance_pin.equilibrium.outputs import leaf_links
+from clearance_pin.json_documents import schema
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = sorted((ROOT / "models").glob("*.urdf"))
@@ -553,8 +554,14 @@ def test_command_writes_json_and_a_plot(tmp_path):
     )  # fmt: skip
     assert args.run(args) == 0
     document = json.loads(target.read_text())
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(document, schema("envelope"))
+    assert document["schema"] == "clearance_pin/envelope/1"
     rotation = document["envelopes"][0]["kinds"]["rotation"]
-    assert rotation["maximum"]["certified"] and rotation["maximum"]["gap"] <= GAP
+    assert rotation["certified"] and rotation["relative_gap"] <= GAP
+    # the same numbers as the library's
+    kind = clearance_pin.load(ROOT / "models" / "four_bar.urdf").envelope("rocker").kinds
+    assert rotation["largest_upper_rad"] == pytest.approx(kind["rotation"].maximum.upper, rel=1e-9)
     if pytest.importorskip("matplotlib"):
         assert picture.stat().st_size > 10_000
 

@@ -215,9 +215,9 @@ def test_command_writes_table_plot_and_json(tmp_path, capsys):
     assert "max worst band over the cycle" in text and "S_r2" in text
     document = json.loads(out.read_text())
     x4 = document["outputs"]["x4"]
-    assert x4["worst"][0] == pytest.approx(120e-6)
-    assert x4["worst_max"] == pytest.approx(120.21025e-6, rel=1e-6)
-    assert {"mc_uniform_max_abs", "exact_upper", "clearance_deviation"} <= set(x4)
+    assert x4["worst_m"][0] == pytest.approx(120e-6)
+    assert x4["worst_max_m"] == pytest.approx(120.21025e-6, rel=1e-6)
+    assert {"mc_uniform_max_abs_m", "exact_upper_m", "clearance_deviation_m"} <= set(x4)
     assert png.exists()
 
 

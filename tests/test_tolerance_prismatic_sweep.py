@@ -293,17 +293,19 @@ def test_command_on_the_slider_driven_crank(tmp_path, capsys):
     assert rows == [80.0, 100.0, 120.0, 140.0, 160.0]
     assert "max worst band over s in [80, 160] mm" in text and "at s = 80.0000 mm" in text
     document = json.loads(out.read_text())
-    assert document["unit"] == "m" and "phi_deg" not in document
-    assert np.allclose(document["s_m"], np.linspace(0.08, 0.16, 5), rtol=0, atol=1e-15)
+    assert document["schema"] == "clearance_pin/tolerance/1" and "parameter_rad" not in document
+    assert np.allclose(document["parameter_m"], np.linspace(0.08, 0.16, 5), rtol=0, atol=1e-15)
     theta2 = document["outputs"]["theta2"]
-    for k, s in enumerate(document["s_m"]):
+    for k, s in enumerate(document["parameter_m"]):
         expected = crank_sensitivities(s)
-        assert theta2["sensitivities"]["r2"][k] == pytest.approx(expected[0], rel=1e-9)
-        assert theta2["sensitivities"]["r3"][k] == pytest.approx(expected[1], rel=1e-9)
-    assert theta2["worst_max_s_m"] == pytest.approx(0.08, abs=1e-9)
+        r2 = theta2["sensitivities"]["r2"]["values_rad_per_m"]
+        r3 = theta2["sensitivities"]["r3"]["values_rad_per_m"]
+        assert r2[k] == pytest.approx(expected[0], rel=1e-9)
+        assert r3[k] == pytest.approx(expected[1], rel=1e-9)
+    assert theta2["worst_max_parameter_m"] == pytest.approx(0.08, abs=1e-9)
     # exact closures inside the first-order band, to its second-order terms: at 80 mm, 12 mm
     # from the dead centre, the exact worst case is 0.33 % above it (4714.9 against 4699.2 urad)
-    mc, worst = np.array(theta2["mc_uniform_max_abs"]), np.array(theta2["worst"])
+    mc, worst = np.array(theta2["mc_uniform_max_abs_rad"]), np.array(theta2["worst_rad"])
     assert np.all(mc <= 1.01 * worst) and np.all(mc > 0.5 * worst)
 
     assert cli_main([*common, "--samples", "0"]) == 2
@@ -436,8 +438,10 @@ def test_command_on_a_stewart_leg(tmp_path, capsys):
     document = json.loads(out.read_text())
     mechanism = clearance_pin.load(STEWART)
     result = sweep(mechanism, OUTPUTS[:3], LEG, positions=3, start=STROKE[0], stop=STROKE[1])
-    assert document["s_m"] == result.phi.tolist()
+    assert document["parameter_m"] == result.phi.tolist()
     for i, name in enumerate(OUTPUTS[:3]):
-        assert document["outputs"][name]["sensitivities"]["b1"] == result.matrix[:, i, 0].tolist()
+        sensitivity = document["outputs"][name]["sensitivities"]["b1"]
+        (values,) = sensitivity.values()
+        assert values == result.matrix[:, i, 0].tolist()
     assert cli_main([*common, "--start", "900", "--stop", "1100"]) == 2
     assert "'leg1' within its URDF limits [0, 1] m" in capsys.readouterr().err

@@ -101,11 +101,20 @@ class AccuracyMap:
             ],
             "all_verified": bool(self.ok.all()),
         }
-        if poses:
+        if poses:  # a failed case is NaN here, null in JSON
+            summary["frame"] = "world"
             summary["configurations"] = self.configurations.tolist()
-            summary["translation_m"] = self.translation.tolist()
-            summary["rotation_rad"] = self.rotation.tolist()
+            summary["translation_m"] = _nulls(self.translation)
+            summary["rotation_rad"] = _nulls(self.rotation)
         return summary
+
+
+def _nulls(values: np.ndarray) -> list[Any]:
+    """``values`` as nested lists, NaN as None (JSON has no NaN)."""
+    cells = values.astype(object)
+    cells[~np.isfinite(values)] = None
+    nested: list[Any] = cells.tolist()
+    return nested
 
 
 def accuracy_map(

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..commands import add_model_arguments, model_options
 from ..errors import ArgumentError
+from ..json_documents import ACCURACY_SCHEMA
 
 UM = 1e6  # [um per m]
 
@@ -92,7 +93,11 @@ def run(args: argparse.Namespace) -> int:
         plot_accuracy(amap, mechanism, args.plot)
         print(f"plot written to {args.plot}")
     if args.json:
-        document = {"model": str(args.model), **amap.to_dict(poses=args.poses_json)}
+        document = {
+            "schema": ACCURACY_SCHEMA,
+            "model": str(args.model),
+            **amap.to_dict(poses=args.poses_json),
+        }
         args.json.write_text(json.dumps(document, indent=1))
         print(f"JSON written to {args.json}")
     return 0

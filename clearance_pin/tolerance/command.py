@@ -30,6 +30,7 @@ import pinocchio as pin
 from ..arguments import MOST_POSITIONS, MOST_SAMPLES, check_count, check_seed
 from ..commands import add_model_arguments, model_options
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
+from ..json_documents import TOLERANCE_SCHEMA
 from .sensitivity import Output, determined_outputs, parse_output, sensitivities
 from .sweep import (
     Budget,
@@ -309,63 +310,65 @@ def _span(result: Sweep) -> str:
 
 
 def _document(model: Path, result: Sweep, maxima: Maxima, budget: Budget | None) -> dict[str, Any]:
-    """The JSON document (SI units)."""
+    """The ``tolerance`` document (:data:`~..json_documents.TOLERANCE_SCHEMA`), SI: every
+    quantity suffixed with its unit (an output's ``_m`` or ``_rad``, a dimension's likewise; a
+    sensitivity ``_m_per_m``, ``_rad_per_m``, ...); the sweep's motion parameter (phi [rad] or
+    s [m]) with ``q_drive = offset + sign * parameter``."""
+    motion = result.unit  # the driven joint's: rad or m
     outputs: dict[str, dict[str, Any]] = {}
     for i, output in enumerate(result.outputs):
+        u = output.unit
         entry: dict[str, Any] = {
             "kind": output.kind,
             "target": output.target,
-            "unit": output.unit,
-            "values": result.values[:, i].tolist(),
+            f"values_{u}": result.values[:, i].tolist(),
             "sensitivities": {
-                d.name: result.matrix[:, i, j].tolist() for j, d in enumerate(result.dimensions)
+                d.name: {
+                    f"values_{u}_per_{d.unit}": result.matrix[:, i, j].tolist(),
+                }
+                for j, d in enumerate(result.dimensions)
             },
-            "worst": result.worst[:, i].tolist(),
-            "rss": result.rss[:, i].tolist(),
+            f"worst_{u}": result.worst[:, i].tolist(),
+            f"rss_{u}": result.rss[:, i].tolist(),
         }
         if result.uniform:
-            entry["mc_uniform_max_abs"] = [r.max_abs[i] for r in result.uniform]
-            entry["mc_normal_3sigma"] = [r.three_sigma[i] for r in result.normal]
+            entry[f"mc_uniform_max_abs_{u}"] = [r.max_abs[i] for r in result.uniform]
+            entry[f"mc_normal_3sigma_{u}"] = [r.three_sigma[i] for r in result.normal]
         if result.exact:
-            entry["exact_lower"] = [w.lower[i] for w in result.exact]
-            entry["exact_upper"] = [w.upper[i] for w in result.exact]
+            entry[f"exact_lower_{u}"] = [w.lower[i] for w in result.exact]
+            entry[f"exact_upper_{u}"] = [w.upper[i] for w in result.exact]
         for band in ("worst", "rss"):
             if (output.name, band) in maxima:
                 value, where = maxima[(output.name, band)]
-                entry[f"{band}_max"] = value
-                if result.unit == "rad":
-                    entry[f"{band}_max_phi_deg"] = math.degrees(where)
-                else:
-                    entry[f"{band}_max_s_m"] = float(where)
+                entry[f"{band}_max_{u}"] = value
+                entry[f"{band}_max_parameter_{motion}"] = float(where)
         if budget is not None and budget.output == output.name:
-            entry["clearance_deviation"] = budget.clearance.tolist()
-            entry["total_worst"] = budget.total_worst.tolist()
-            entry["total_rss"] = budget.total_rss.tolist()
+            entry[f"clearance_deviation_{u}"] = budget.clearance.tolist()
+            entry[f"total_worst_{u}"] = budget.total_worst.tolist()
+            entry[f"total_rss_{u}"] = budget.total_rss.tolist()
         outputs[output.name] = entry
-    if result.unit == "rad":
-        motion = {"offset_rad": result.offset, "phi_deg": result.phi_deg.tolist()}
-    else:
-        motion = {"unit": "m", "offset_m": result.offset, "s_m": result.phi.tolist()}
     return {
+        "schema": TOLERANCE_SCHEMA,
         "model": str(model),
         "joint": result.joint,
         "sign": result.sign,
-        **motion,
+        f"offset_{motion}": result.offset,
+        f"parameter_{motion}": result.phi.tolist(),
         "dimensions": [
             {
                 "name": d.name,
                 "joint": d.joint,
                 "kind": d.kind,
-                "nominal": d.nominal,
-                "tolerance": d.tolerance,
-                "half_tolerance": d.half_tolerance,
+                f"nominal_{d.unit}": d.nominal,
+                f"tolerance_{d.unit}": d.tolerance,
+                f"half_tolerance_{d.unit}": d.half_tolerance,
                 "grade": d.grade,
             }
             for d in result.dimensions
         ],
         "outputs": outputs,
         "mc_samples": result.uniform[0].samples if result.uniform else 0,
-        "seconds": result.seconds,
+        "time_s": result.seconds,
     }
 
 
