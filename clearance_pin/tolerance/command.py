@@ -28,10 +28,11 @@ import numpy as np
 import pinocchio as pin
 
 from ..arguments import MOST_POSITIONS, MOST_SAMPLES, check_count, check_seed
-from ..commands import add_model_arguments, model_options
+from ..commands import OK, OUT_OF_TOLERANCE, add_model_arguments, model_options
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..json_documents import TOLERANCE_SCHEMA
 from .sensitivity import Output, determined_outputs, parse_output, sensitivities
+from .spec import Verdict, contributors, parse_spec, verdict
 from .sweep import (
     Budget,
     Sweep,
@@ -112,6 +113,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="add the clearance-induced deviation of this output (equilibrium "
         "engine, the model's loads) and the combined budget",
     )
+    parser.add_argument(
+        "--spec",
+        action="append",
+        default=[],
+        metavar="NAME=LIMIT",
+        help="a spec limit on |deviation| of an output, SI or with a unit (x4=50um, "
+        "theta3=0.1deg); repeatable: each output's worst case, RSS and Monte Carlo judged "
+        "against it (exit 1 when a worst case exceeds it)",
+    )
     parser.add_argument("--plot", type=Path, metavar="FILE", help="write a PNG of the bands")
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the results as JSON")
 
@@ -165,6 +175,8 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.budget and args.budget not in [output.name for output in outputs]:
         raise NotFoundError("output", args.budget, [output.name for output in outputs], "--budget")
+    specs = dict(parse_spec(text, outputs) for text in args.spec)
+    limits = [specs.get(output.name, math.inf) for output in outputs] if specs else None
     start, stop, offset = _range_si(mechanism, args)
     result = sweep(
         mechanism,
@@ -178,6 +190,7 @@ def run(args: argparse.Namespace) -> int:
         samples=args.samples,
         seed=args.seed,
         exact=args.exact,
+        limits=limits,
     )
     maxima: Maxima = {}
     if not args.no_maxima and args.positions > 1:
@@ -197,14 +210,50 @@ def run(args: argparse.Namespace) -> int:
                     mechanism, result, output.name, band, fine=fine
                 )
     budget = clearance_budget(mechanism, result, args.budget) if args.budget else None
+    verdicts = [
+        verdict(result, i, specs[output.name], _largest(maxima, output.name))
+        for i, output in enumerate(result.outputs)
+        if output.name in specs
+    ]
     print(_table(mechanism, result, maxima, budget))
+    for line in _spec_lines(verdicts):
+        print(line)
     if args.plot:
         plot_sweep(result, args.plot, budget, title=f"{mechanism.name}: tolerance bands")
         print(f"plot written to {args.plot}")
     if args.json:
-        args.json.write_text(json.dumps(_document(args.model, result, maxima, budget), indent=1))
+        document = _document(args.model, result, maxima, budget, verdicts)
+        args.json.write_text(json.dumps(document, indent=1))
         print(f"JSON written to {args.json}")
-    return 0
+    return OUT_OF_TOLERANCE if any(not v.worst_case_passes for v in verdicts) else OK
+
+
+def _largest(maxima: Maxima, name: str) -> tuple[float, float] | None:
+    """(worst, RSS) maxima of output ``name`` over the continuous sweep, when computed."""
+    if (name, "worst") not in maxima:
+        return None
+    return maxima[(name, "worst")][0], maxima[(name, "rss")][0]
+
+
+def _spec_lines(verdicts: list[Verdict]) -> list[str]:
+    """The spec section of the table: per output its limit, worst case and RSS pass or fail,
+    and the Monte Carlo shares out of spec."""
+    lines = []
+    for v in verdicts:
+        factor, unit = _TABLE_SCALE[v.unit]
+        lines.append("")
+        lines.append(
+            f"spec {v.output}: |deviation| <= {factor * v.limit:.4g} {unit}: worst case "
+            f"{'PASS' if v.worst_case_passes else 'FAIL'} (largest band "
+            f"{factor * v.worst:.4g} {unit}), RSS {'PASS' if v.rss_passes else 'FAIL'} "
+            f"({factor * v.rss:.4g} {unit})"
+        )
+        if v.uniform_share is not None and v.normal_share is not None:
+            lines.append(
+                f"  out of spec over the sweep (Monte Carlo): {100 * v.uniform_share:.3g} % "
+                f"(uniform dimensions), {100 * v.normal_share:.3g} % (normal, 6 sigma = T)"
+            )
+    return lines
 
 
 def _range_si(mechanism: Mechanism, args: argparse.Namespace) -> tuple[float, float, float]:
@@ -282,6 +331,15 @@ def _table(mechanism: Mechanism, result: Sweep, maxima: Maxima, budget: Budget |
                     f"  max {band} band over {_span(result)}: {factor * value:.4f} {unit} at "
                     f"{result.symbol} = {result.display(where):.4f} {result.display_unit}"
                 )
+        ranked = contributors(result, i)
+        if ranked:
+            lines.append(f"  what moves {output.name} most (largest share of its worst band):")
+            for c in ranked:
+                lines.append(
+                    f"    {c.dimension}: {factor * c.share:.4g} {unit} at {result.symbol} = "
+                    f"{result.display(result.phi[c.position]):.4g} {result.display_unit} "
+                    f"({100 * c.fraction:.0f} % of the band there)"
+                )
     if result.uniform:
         lines.append("")
         lines.append(
@@ -309,7 +367,13 @@ def _span(result: Sweep) -> str:
     return f"s in [{low:.6g}, {high:.6g}] mm"
 
 
-def _document(model: Path, result: Sweep, maxima: Maxima, budget: Budget | None) -> dict[str, Any]:
+def _document(
+    model: Path,
+    result: Sweep,
+    maxima: Maxima,
+    budget: Budget | None,
+    verdicts: list[Verdict] | None = None,
+) -> dict[str, Any]:
     """The ``tolerance`` document (:data:`~..json_documents.TOLERANCE_SCHEMA`), SI: every
     quantity suffixed with its unit (an output's ``_m`` or ``_rad``, a dimension's likewise; a
     sensitivity ``_m_per_m``, ``_rad_per_m``, ...); the sweep's motion parameter (phi [rad] or
@@ -346,6 +410,24 @@ def _document(model: Path, result: Sweep, maxima: Maxima, budget: Budget | None)
             entry[f"clearance_deviation_{u}"] = budget.clearance.tolist()
             entry[f"total_worst_{u}"] = budget.total_worst.tolist()
             entry[f"total_rss_{u}"] = budget.total_rss.tolist()
+        entry["contributors"] = [
+            {
+                "dimension": c.dimension,
+                f"largest_share_{u}": c.share,
+                f"at_parameter_{motion}": float(result.phi[c.position]),
+                "share_of_band": c.fraction,
+            }
+            for c in contributors(result, i)
+        ]
+        for v in verdicts or ():
+            if v.output == output.name:
+                entry["spec"] = {
+                    f"limit_{u}": v.limit,
+                    "worst_case_passes": v.worst_case_passes,
+                    "rss_passes": v.rss_passes,
+                    "mc_uniform_share_beyond": v.uniform_share,
+                    "mc_normal_share_beyond": v.normal_share,
+                }
         outputs[output.name] = entry
     return {
         "schema": TOLERANCE_SCHEMA,

@@ -56,6 +56,8 @@ class MonteCarloResult:
         mean, std, minimum, maximum: per output [m or rad], shape (n_out,); ``std`` with ``n - 1``.
         points: a random subset of the deviations, shape (k, n_out), for plots.
         seconds: wall time.
+        beyond: per output, how many samples deviate by more than its spec limit
+            (``|deviation| > limit``; None: no limits given), shape (n_out,).
     """
 
     outputs: tuple[Output, ...]
@@ -67,6 +69,12 @@ class MonteCarloResult:
     maximum: np.ndarray
     points: np.ndarray
     seconds: float
+    beyond: np.ndarray | None = None
+
+    @property
+    def share_beyond(self) -> np.ndarray | None:
+        """The share of samples out of spec per output (None: no limits given)."""
+        return None if self.beyond is None else self.beyond / self.samples
 
     @property
     def three_sigma(self) -> np.ndarray:
@@ -93,6 +101,7 @@ def monte_carlo(
     progress: bool | None = None,
     closure: BatchClosure | None = None,
     workers: int | None = None,
+    limits: np.ndarray | None = None,
 ) -> MonteCarloResult:
     """Monte Carlo of the outputs with the loops closed exactly for every sample [F].
 
@@ -110,6 +119,8 @@ def monte_carlo(
         closure: a prebuilt :class:`BatchClosure` of the configuration.
         workers: threads closing blocks in parallel (NumPy releases the GIL in its loops);
             default ``min(4, cpu_count)``; the draws stay sequential.
+        limits: per output a spec limit [m or rad] (inf: none): the samples with
+            ``|deviation| > limit`` are counted (:attr:`MonteCarloResult.beyond`).
 
     Returns:
         :class:`MonteCarloResult`.
@@ -120,7 +131,7 @@ def monte_carlo(
         raise ArgumentError("samples", "an integer >= 2", samples)
     rng = np.random.default_rng(seed)
     half = np.array([d.half_tolerance for d in closure.dimensions])
-    stats = _Moments(len(closure.outputs), keep)
+    stats = _Moments(len(closure.outputs), keep, limits)
     bar = Progress(
         samples,
         "Monte Carlo",
@@ -156,14 +167,18 @@ def monte_carlo(
         stats.high,
         np.vstack(stats.kept) if stats.kept else np.zeros((0, len(closure.outputs))),
         time.perf_counter() - started,
+        stats.beyond,
     )
 
 
 class _Moments:
-    """Running mean, variance (shifted sums), extremes and the first ``keep`` samples."""
+    """Running mean, variance (shifted sums), extremes, the first ``keep`` samples and how many
+    exceed the ``limits``."""
 
-    def __init__(self, n_out: int, keep: int) -> None:
+    def __init__(self, n_out: int, keep: int, limits: np.ndarray | None = None) -> None:
         self.count, self.keep = 0, keep
+        self.limits = None if limits is None else np.asarray(limits, dtype=float)
+        self.beyond = None if limits is None else np.zeros(n_out, dtype=int)
         self.total, self.total_sq = np.zeros(n_out), np.zeros(n_out)
         self.low, self.high = np.full(n_out, np.inf), np.full(n_out, -np.inf)
         self.shift: np.ndarray | None = None
@@ -179,6 +194,8 @@ class _Moments:
             np.minimum(self.low, y.min(axis=0)),
             np.maximum(self.high, y.max(axis=0)),
         )
+        if self.beyond is not None:
+            self.beyond += np.sum(~(np.abs(y) <= self.limits), axis=0)  # NaN: out of spec
         room = self.keep - sum(len(k) for k in self.kept)
         if room > 0:
             self.kept.append(y[:room])

@@ -276,6 +276,7 @@ def sweep(
     seed: int = 0,
     exact: bool = False,
     progress: bool | None = None,
+    limits: Sequence[float] | None = None,
 ) -> Sweep:
     """Sensitivities and bands over a cycle or a stroke of a driven joint [F].
 
@@ -295,6 +296,8 @@ def sweep(
         seed: seed of the Monte Carlo runs (position k uses ``seed + k``).
         exact: also the exact worst case at every position.
         progress: progress bar on stderr (None: on a terminal, for runs with Monte Carlo).
+        limits: per output a spec limit [m or rad] (inf: none): the Monte Carlo runs count the
+            samples out of spec (:attr:`.monte_carlo.MonteCarloResult.beyond`).
 
     Returns:
         :class:`Sweep`.
@@ -355,6 +358,7 @@ def sweep(
                             seed=seed + k,
                             closure=closure,
                             progress=False,
+                            limits=None if limits is None else np.asarray(limits, dtype=float),
                         )
                     )
             if exact:
