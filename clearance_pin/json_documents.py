@@ -192,6 +192,10 @@ def _envelope(envelope: Any) -> dict[str, Any]:
             "contacts": list(extreme.contacts),
             f"world_ranges_{unit}": _ranges(part.world),
             f"output_frame_ranges_{unit}": _ranges(part.frame),
+            "contributors": [
+                {"joint": joint, f"share_{unit}": _vector(share)}
+                for joint, share in envelope.contributors(kind).items()
+            ],
         }
         if envelope.exact is not None and kind in envelope.exact:
             exact = envelope.exact[kind]

@@ -613,3 +613,19 @@ def test_cell_bound_of_a_cube_is_exact_in_a_corner_cone_and_valid_elsewhere():
                 assert bounds[i] == pytest.approx(math.sqrt(3.0), rel=1e-12)
                 exact += 1
     assert exact >= 8
+
+
+def test_the_envelope_says_what_moves_the_output_at_its_largest():
+    """The 6R arm's tool: each joint's share of the deviation that reaches the largest (the
+    library's contributions of that state, so a self-consistency check: they sum to the
+    certified extreme's deviation); a point that is no frame and a loop give none."""
+    mechanism = clearance_pin.load(ROOT / "models" / "arm_6r.urdf")
+    env = envelope(mechanism, "tool")
+    for kind in ("translation", "rotation"):
+        shares = env.contributors(kind)
+        assert len(shares) == 6
+        total = sum(shares.values())
+        assert total == pytest.approx(env.kinds[kind].maximum.deviation, abs=1e-12)
+    assert "what moves it there" in env.table()
+    loop = clearance_pin.load(ROOT / "models" / "four_bar.urdf")
+    assert envelope(loop, "rocker", kinds=("translation",)).contributors("translation") == {}

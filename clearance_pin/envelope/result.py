@@ -239,6 +239,15 @@ class Envelope:
                 f"{'' if extreme.certified else ', NOT certified'})"
             )
             lines.append(f"  reached with contacts: {', '.join(extreme.contacts) or '-'}")
+            deviation = extreme.deviation
+            size = float(deviation @ deviation)
+            shares = [
+                f"{joint} {np.linalg.norm(share) * scale:.4g} {label} "
+                f"({100 * float(share @ deviation) / size:.0f} %)"
+                for joint, share in self.contributors(kind).items()
+            ]
+            if shares and size > 0.0:
+                lines.append(f"  what moves it there (share, % along it): {', '.join(shares)}")
             if envelope.free.shape[1]:
                 free = "; ".join(np.array2string(f, precision=3) for f in envelope.free.T)
                 lines.append(f"  free (unbounded) directions: {free}")
@@ -252,6 +261,21 @@ class Envelope:
             for value in self.exact.values():
                 lines.extend(value.lines(length, unit))
         return "\n".join(lines)
+
+    def contributors(self, kind: str) -> dict[str, np.ndarray]:
+        """What each joint's play moves the output by in the state that reaches the largest
+        deviation of ``kind``: joint name -> share (3,) [m or rad], world axes, largest first
+        (:meth:`~clearance_pin.equilibrium.result.Equilibrium.contributions`; the shares sum to
+        that state's displacement of the output). Empty for a point that is no frame (a
+        ``link@[x y z]``) and for a mechanism with loops (its passive joints follow the loops)."""
+        state = self._kind(kind).maximum.state
+        if state is None or "@" in self.output.name or state.mechanism.loop_joints:
+            return {}
+        index = 0 if kind == "translation" else 1
+        shares = {
+            joint: parts[index] for joint, parts in state.contributions(self.output.name).items()
+        }
+        return dict(sorted(shares.items(), key=lambda item: -float(np.linalg.norm(item[1]))))
 
     def _kind(self, kind: str) -> KindEnvelope:
         if kind not in KINDS:
