@@ -72,8 +72,11 @@ def test_spec_on_the_command_line_passes_or_fails_with_its_exit_status(tmp_path,
     assert entry["spec"]["limit_m"] == pytest.approx(130e-6)
     assert entry["spec"]["worst_case_passes"] is True
     assert [c["dimension"] for c in entry["contributors"]] == ["r3", "r2"]
-    assert main([*common, "--spec", "slider.x=0.1mm"]) == 1
+    picture = tmp_path / "spec.png"
+    assert main([*common, "--spec", "slider.x=0.1mm", "--plot", str(picture)]) == 1
     assert "worst case FAIL" in capsys.readouterr().out
+    if pytest.importorskip("matplotlib"):  # the bands, the limits and the histogram beside
+        assert picture.stat().st_size > 20_000
 
 
 @pytest.mark.parametrize(

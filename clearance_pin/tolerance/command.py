@@ -219,7 +219,9 @@ def run(args: argparse.Namespace) -> int:
     for line in _spec_lines(verdicts):
         print(line)
     if args.plot:
-        plot_sweep(result, args.plot, budget, title=f"{mechanism.name}: tolerance bands")
+        plot_sweep(
+            result, args.plot, budget, title=f"{mechanism.name}: tolerance bands", limits=specs
+        )
         print(f"plot written to {args.plot}")
     if args.json:
         document = _document(args.model, result, maxima, budget, verdicts)

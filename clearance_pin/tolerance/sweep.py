@@ -33,7 +33,7 @@ import time
 import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, overload
+from typing import TYPE_CHECKING, Any, overload
 
 import numpy as np
 import pinocchio as pin
@@ -603,13 +603,16 @@ def plot_sweep(
     budget: Budget | None = None,
     scale: dict[str, tuple[float, str]] | None = None,
     title: str = "",
+    limits: dict[str, float] | None = None,
 ) -> None:
     """Write a PNG of the bands over the sweep, with the Monte Carlo points and the budget.
 
     One panel per output: the worst-case band (shaded), the RSS band (lines), the uniform Monte
-    Carlo deviations (points) and the exact worst case (markers); with ``budget``, a last
-    panel with the clearance deviation and the total bands around it. The abscissa is the
-    motion parameter, ``phi`` [deg] or ``s`` [mm] (a prismatic joint).
+    Carlo deviations (points), the exact worst case (markers) and the spec limits ``limits``
+    (output name -> L [m or rad], dashed at +/- L); beside it, with Monte Carlo, the histogram
+    of the deviations where the worst band is largest, with the same bands and limits. With
+    ``budget``, a last panel with the clearance deviation and the total bands around it. The
+    abscissa is the motion parameter, ``phi`` [deg] or ``s`` [mm] (a prismatic joint).
 
     Args:
         result: a :class:`Sweep`.
@@ -631,12 +634,29 @@ def plot_sweep(
             "plotting needs matplotlib: pip install clearance_pin[plot]"
         ) from None
     scale = scale or {"m": (1e6, "um"), "rad": (1e3, "mrad")}
+    limits = limits or {}
     panels = len(result.outputs) + (budget is not None)
-    fig, axes = plt.subplots(panels, 1, figsize=(10, 2.8 * panels), sharex=True, squeeze=False)
+    histograms = bool(result.uniform)
+    fig, axes = plt.subplots(
+        panels,
+        2 if histograms else 1,
+        figsize=(12 if histograms else 10, (3.6 if histograms else 2.8) * panels),
+        squeeze=False,
+        gridspec_kw={"width_ratios": [3, 1]} if histograms else None,
+    )
+    for ax in axes[1:, 0]:
+        ax.sharex(axes[0, 0])
     phi = result.display()
     for i, output in enumerate(result.outputs):
         ax = axes[i, 0]
         factor, unit = scale[output.unit]
+        limit = limits.get(output.name)
+        if limit is not None:
+            for sign in (1.0, -1.0):
+                ax.axhline(sign * factor * limit, color="tab:red", ls="--", lw=1,
+                           label="spec limit" if sign > 0 else None)  # fmt: skip
+        if histograms:
+            _histogram(axes[i, 1], result, i, factor, unit, limit)
         ax.fill_between(
             phi,
             -factor * result.worst[:, i],
@@ -681,9 +701,11 @@ def plot_sweep(
             )
         ax.set_ylabel(f"d{output.name} [{unit}]")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+        _legend(ax, histograms, last=budget is None and i == len(result.outputs) - 1)
     if budget is not None:
         ax = axes[-1, 0]
+        if histograms:
+            axes[-1, 1].set_visible(False)
         output = result.outputs[result.index(budget.output)]
         factor, unit = scale[output.unit]
         c = factor * budget.clearance
@@ -700,10 +722,44 @@ def plot_sweep(
         ax.plot(phi, c - factor * budget.rss, color="tab:orange")
         ax.set_ylabel(f"d{budget.output} total [{unit}]")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+        _legend(ax, histograms, last=True)
     axes[-1, 0].set_xlabel(f"{result.symbol} [{result.display_unit}]")
     if title:
         fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def _legend(ax: Any, beside: bool, last: bool = False) -> None:
+    """The panel's legend: right of it, or below it when a histogram takes that place (below
+    the abscissa's label on the ``last`` panel)."""
+    if beside:
+        below = -0.3 if last else -0.16
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, below), ncol=3)
+    else:
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+
+
+def _histogram(ax: Any, result: Sweep, index: int, factor: float, unit: str,
+               limit: float | None) -> None:  # fmt: skip
+    """The kept uniform Monte Carlo deviations of output ``index`` where its worst band is
+    largest, against the worst-case and RSS bands and the spec limit (share out of spec over
+    every sample there in the title)."""
+    k = int(np.argmax(result.worst[:, index]))
+    run = result.uniform[k]
+    values = factor * run.points[:, index]
+    ax.hist(values, bins=40, color="0.4", orientation="horizontal")
+    worst, rss = factor * result.worst[k, index], factor * result.rss[k, index]
+    for sign in (1.0, -1.0):
+        ax.axhline(sign * worst, color="tab:blue", lw=1)
+        ax.axhline(sign * rss, color="tab:orange", lw=1)
+        if limit is not None:
+            ax.axhline(sign * factor * limit, color="tab:red", ls="--", lw=1)
+    title = f"at {result.symbol} = {result.display(result.phi[k]):.4g} {result.display_unit}"
+    if run.beyond is not None and limit is not None:
+        title += f"\n{100 * run.beyond[index] / run.samples:.3g} % out of spec"
+    ax.set_title(title, fontsize=8)
+    ax.set_xlabel("samples")
+    ax.set_ylabel(f"[{unit}]")
+    ax.grid(True, alpha=0.3)
