@@ -8,8 +8,9 @@ more than 90 deg: the part flips across its play), the path
 :math:`q(s) = (1 - s)\, q_{i-1} + s\, q_i` is bisected on :math:`s \in [0, 1]` until the
 interval is below ``tolerance`` of the whole trajectory's driven range; the jump of each output
 is its displacement on the far side minus the near side,
-:math:`\Delta p = \delta p(s^+) - \delta p(s^-)` [m] (a contact that flips across a play c moves
-the parts by up to 2c at once: a discontinuity of the positioning, not of the model).
+:math:`\Delta p = \delta p(s^+) - \delta p(s^-)` [m], and likewise its rotation
+:math:`\Delta\theta` [rad] (a contact that flips across a play c moves the parts by up to 2c at
+once: a discontinuity of the positioning, not of the model).
 """
 
 from __future__ import annotations
@@ -39,6 +40,8 @@ class ModeChange:
             or whose force turns by more than 90 deg across the change (slab contacts changing
             face are in ``flipped`` too).
         jumps: output name -> translation jump (3,) [m], world axes, far side minus near side.
+        rotation_jumps: output name -> rotation jump (3,) [rad], world axes, likewise.
+        near, far: the answers either side of the change, ``width`` apart.
     """
 
     index: int
@@ -49,10 +52,17 @@ class ModeChange:
     left: tuple[str, ...]
     flipped: tuple[str, ...]
     jumps: dict[str, np.ndarray]
+    rotation_jumps: dict[str, np.ndarray] = field(default_factory=dict)
+    near: Equilibrium | None = field(default=None, repr=False, compare=False)
+    far: Equilibrium | None = field(default=None, repr=False, compare=False)
 
     def largest_jump(self) -> float:
         """The largest output jump [m]."""
         return max((float(np.linalg.norm(j)) for j in self.jumps.values()), default=0.0)
+
+    def largest_rotation_jump(self) -> float:
+        """The largest output rotation jump [rad]."""
+        return max((float(np.linalg.norm(j)) for j in self.rotation_jumps.values()), default=0.0)
 
 
 def locate_changes(
@@ -103,7 +113,9 @@ def locate_changes(
             else:
                 high, high_answer = middle, answer
         touched, left, turned = _differences(low_answer, high_answer, shapes)
-        jumps = {name: _moved(high_answer, name) - _moved(low_answer, name) for name in names}
+        moved = {name: (_moved(low_answer, name), _moved(high_answer, name)) for name in names}
+        jumps = {name: far_[0] - near_[0] for name, (near_, far_) in moved.items()}
+        turns = {name: far_[1] - near_[1] for name, (near_, far_) in moved.items()}
         located.append(
             ModeChange(
                 index,
@@ -114,15 +126,22 @@ def locate_changes(
                 left,
                 turned,
                 jumps,
+                turns,
+                low_answer,
+                high_answer,
             )
         )
     return tuple(located)
 
 
-def _moved(answer: Equilibrium, name: str) -> np.ndarray:
-    """The translation [m] of an output of the answer, or of a Pinocchio frame."""
+def _moved(answer: Equilibrium, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The translation [m] and rotation [rad] of an output of the answer, or of a Pinocchio
+    frame, world axes."""
     found = answer.outputs.get(name)
-    return np.asarray(found[0] if found is not None else answer.frame_displacement(name).linear)
+    if found is not None:
+        return np.asarray(found[0]), np.asarray(found[1])
+    displacement = answer.frame_displacement(name)
+    return np.asarray(displacement.linear), np.asarray(displacement.angular)
 
 
 Shapes = dict[str, tuple[str, tuple[int, ...]]]

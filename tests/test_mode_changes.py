@@ -65,6 +65,27 @@ def test_a_pin_flip_is_located_where_the_coupler_force_vanishes():
         # the tip jumps across its pins' plays: each flip moves a pin by up to 2 c (4 pins)
         jump = np.linalg.norm(change.jumps["rocker_B"])
         assert 2 * PLAY < jump < 10 * PLAY
+        assert change.largest_rotation_jump() > 0.0  # the rocker turns as its pins flip
+        # the jump is that of two single solves either side of the change (the bisection's
+        # answers are single solves at those poses; solved again here, the same numbers)
+        s_near = change.fraction - 0.5 * change.width
+        s_far = change.fraction + 0.5 * change.width
+        loads = [cp.PointForce("rocker", [0.0, -30.0, 0.0], [0.12, 0, 0])]
+        either = [
+            four_bar.solve(loads, q=(1.0 - s) * q0 + s * q1, gravity=False).frame_displacement(
+                "rocker_B"
+            )
+            for s in (s_near, s_far)
+        ]
+        np.testing.assert_allclose(
+            either[1].linear - either[0].linear, change.jumps["rocker_B"], rtol=0, atol=1e-12
+        )
+        np.testing.assert_allclose(
+            either[1].angular - either[0].angular,
+            change.rotation_jumps["rocker_B"],
+            rtol=0,
+            atol=1e-12,
+        )
 
 
 def test_out_and_back_paths_draw_against_the_path(tmp_path):
