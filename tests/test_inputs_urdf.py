@@ -91,17 +91,16 @@ MIMIC_URDF = """<robot name="gripper">
 
 def test_a_mimic_joint_follows_its_driven_leader():
     """A <mimic> joint is read (issue 23): the follower is held at its driven leader's value;
-    with a passive leader it is a ModelError naming both, never ignored."""
+    with a passive leader both stay free, tied by the coupling (never ignored: the follower
+    still sits at m x leader + o)."""
     gripper = cp.loads(MIMIC_URDF, source="gripper.urdf")
     model = gripper.model
     right = model.joints[model.getJointId("right_finger")].idx_q
     assert gripper.q_nominal[right] == 0.01 and gripper.joint("right_finger").driven
-    passive = MIMIC_URDF.replace(' driven="true"', "")
-    with pytest.raises(cp.ModelError) as caught:
-        cp.loads(passive, source="gripper.urdf")
-    error = caught.value
-    assert error.element == "<joint name='right_finger'> <mimic joint='left_finger'>"
-    assert "not driven" in error.problem
+    passive = cp.loads(MIMIC_URDF.replace(' driven="true"', ""), source="gripper.urdf")
+    assert not passive.joint("right_finger").driven and not passive.joint("left_finger").driven
+    assert passive.q_nominal[right] == 0.01
+    assert [(c.follower, c.leader) for c in passive.couplings] == [("right_finger", "left_finger")]
 
 
 # a closed tetrahedron, 1 mm, ASCII STL
