@@ -2,7 +2,7 @@
 
 - A file in ISO-8859-1 with its declaration loads (it was a UnicodeDecodeError traceback) and
   solves exactly as its UTF-8 twin; bytes that do not match the declared encoding are a ModelError.
-- A mimic joint follows its driven leader (a passive leader is a ModelError naming both).
+- A mimic joint follows its driven leader (a passive leader ties the two free joints).
 - Collision meshes are read only when a check needs them: a URDF whose mesh is missing loads and
   solves, and check() raises a ModelError naming the link and the mesh file and saying how to
   point at it; package_dirs, ROS_PACKAGE_PATH and --package-dir find it.
