@@ -170,18 +170,7 @@ class Mechanism:
         """The same mechanism on another ``pin.Model`` of the same tree (a manufactured one:
         :func:`clearance_pin.tolerance.dimensions.with_deviations`), its loops closed from this
         mechanism's nominal configuration; its values are not checked again."""
-        return Mechanism(
-            model,
-            self.tree_joints,
-            self.loop_joints,
-            self.q_nominal,
-            self.loads,
-            self.gravity,
-            source=self.source,
-            name=self.name,
-            dimensions=self.dimensions,
-            check_values=False,
-        )
+        return self._rebuilt(model, self.tree_joints, self.loop_joints)
 
     def without_stiffness(self) -> Mechanism:
         """The same mechanism with rigid joints: every joint's stiffness removed, its play,
@@ -189,16 +178,19 @@ class Mechanism:
         checked again."""
         if not stiff_joints(self.joints):
             return self
-        tree = tuple(
-            replace(j, clearance=replace(j.clearance, stiffness=None)) for j in self.tree_joints
-        )
-        loops = tuple(
-            replace(j, clearance=replace(j.clearance, stiffness=None)) for j in self.loop_joints
-        )
+
+        def rigid(joints):
+            return tuple(replace(j, clearance=replace(j.clearance, stiffness=None)) for j in joints)
+
+        return self._rebuilt(self.model, rigid(self.tree_joints), rigid(self.loop_joints))
+
+    def _rebuilt(self, model: pin.Model, tree_joints: tuple, loop_joints: tuple) -> Mechanism:
+        """This mechanism with another model or joints: its loads, gravity, dimensions and
+        couplings kept, its values not checked again."""
         return Mechanism(
-            self.model,
-            tree,
-            loops,
+            model,
+            tree_joints,
+            loop_joints,
             self.q_nominal,
             self.loads,
             self.gravity,

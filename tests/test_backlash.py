@@ -166,6 +166,16 @@ def test_the_envelope_grows_by_the_lever_of_the_backlash():
     assert low0 - low1 == pytest.approx(ARM * BACKLASH / 2, rel=1e-6)
 
 
+def one_journal(attributes: str) -> str:
+    """A URDF of one revolute joint 'j' about z with a journal clearance and ``attributes``."""
+    return f"""<?xml version="1.0"?>
+<robot name="r"><link name="a"/><link name="b"/>
+  <joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <clearance_pin><joint name="j" type="revolute" radial_clearance="1e-5" length="0.02"
+    {attributes}/></clearance_pin></robot>"""
+
+
 @pytest.mark.parametrize(
     "attributes, message",
     [
@@ -175,12 +185,7 @@ def test_the_envelope_grows_by_the_lever_of_the_backlash():
 )
 def test_bad_backlash_is_named(attributes, message):
     with pytest.raises(cp.ModelError, match=message):
-        cp.loads(f"""<?xml version="1.0"?>
-<robot name="r"><link name="a"/><link name="b"/>
-  <joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
-    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
-  <clearance_pin><joint name="j" type="revolute" radial_clearance="1e-5" length="0.02"
-    {attributes}/></clearance_pin></robot>""")
+        cp.loads(one_journal(attributes))
 
 
 def test_the_report_and_the_coal_check_read_the_stop():

@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from test_backlash import cantilever as backlash_cantilever
+from test_backlash import one_journal
 
 import clearance_pin as cp
 from clearance_pin import ModelError, PointForce, Torque
@@ -22,18 +24,9 @@ ARM = 0.5  # [m]
 
 
 def cantilever(attributes: str) -> cp.Mechanism:
-    """A driven journal about z carrying a 0.5 m cantilever along x."""
-    return cp.loads(f"""<?xml version="1.0"?>
-<robot name="cantilever">
-  <link name="base"/>
-  <link name="arm"/>
-  <joint name="drive" type="revolute"><parent link="base"/><child link="arm"/>
-    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
-  <clearance_pin>
-    <joint name="drive" type="revolute" radial_clearance="1e-5" axial_clearance="5e-6"
-           length="0.04" driven="true" {attributes}/>
-  </clearance_pin>
-</robot>""")
+    """test_backlash's driven journal about z carrying a 0.5 m cantilever along x, with these
+    attributes on its joint."""
+    return backlash_cantilever(backlash=attributes)
 
 
 @pytest.mark.parametrize("torque", [2.0, -3.0])
@@ -207,25 +200,33 @@ def test_a_serial_arm_deflects_by_its_reactions_over_the_stiffness():
 
 
 # -- a vendor robot: the virtual joint method against Pinocchio's Jacobian --------------------------
+UR5_JOINTS = [f"{j}_joint" for j in ("shoulder_pan", "shoulder_lift", "elbow")] + [
+    f"wrist_{i}_joint" for i in (1, 2, 3)
+]
+UR5_POSE = np.array([0.3, -1.2, 1.4, -0.8, 1.1, 0.4])  # [rad]
+
+
+def ur5_with_drives(stiffness: np.ndarray) -> tuple[str, cp.Mechanism]:
+    """The UR5 of example-robot-data as shipped (its URDF text) and the mechanism of it with
+    every joint driven at UR5_POSE with these drive stiffnesses [N m/rad], no play."""
+    from test_auto_bound import example_robot_urdf
+
+    urdf = example_robot_urdf("ur_description/urdf/ur5_robot.urdf")
+    block = "".join(
+        f'<joint name="{j}" driven="true" q="{float(v)!r}" drive_stiffness="{float(k)!r}"/>'
+        for j, k, v in zip(UR5_JOINTS, stiffness, UR5_POSE)
+    )
+    clearances = f"<clearance_pin>{block}</clearance_pin></robot>"
+    return urdf, cp.loads(urdf.replace("</robot>", clearances))
+
+
 def test_ur5_drive_compliance_matches_the_virtual_joint_method():
     """The UR5 as shipped, every joint driven with drive_stiffness only (no play): the tool's
     deflection under a force F at tool0 is J K^-1 J^T F (Pinocchio's own frame Jacobian,
     LOCAL_WORLD_ALIGNED, sharing no code with the solver)."""
-    from test_auto_bound import example_robot_urdf
-
-    urdf = example_robot_urdf("ur_description/urdf/ur5_robot.urdf")
-    joints = [f"{j}_joint" for j in ("shoulder_pan", "shoulder_lift", "elbow")] + [
-        f"wrist_{i}_joint" for i in (1, 2, 3)
-    ]
     stiffness = np.array([2e5, 2e5, 1e5, 3e4, 3e4, 3e4])  # [N m/rad]
-    q = np.array([0.3, -1.2, 1.4, -0.8, 1.1, 0.4])
-    block = "".join(
-        f'<joint name="{j}" driven="true" q="{float(v)!r}" drive_stiffness="{float(k)!r}"/>'
-        for j, k, v in zip(joints, stiffness, q)
-    )
-    mechanism = cp.loads(
-        urdf.replace("</robot>", f"<clearance_pin>{block}</clearance_pin></robot>")
-    )
+    urdf, mechanism = ur5_with_drives(stiffness)
+    joints, q = UR5_JOINTS, UR5_POSE
     force = np.array([30.0, -20.0, 50.0])
     answer = mechanism.solve([PointForce("tool0", force, [0.0, 0.0, 0.0])], gravity=False)
     assert answer.ok
@@ -269,12 +270,7 @@ def test_ur5_drive_compliance_matches_the_virtual_joint_method():
 )  # fmt: skip
 def test_bad_stiffness_is_refused_naming_the_joint(attributes, message):
     with pytest.raises(ModelError, match=message) as error:
-        cp.loads(f"""<?xml version="1.0"?>
-<robot name="r"><link name="a"/><link name="b"/>
-  <joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
-    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
-  <clearance_pin><joint name="j" type="revolute" radial_clearance="1e-5" length="0.02"
-    {attributes}/></clearance_pin></robot>""")
+        cp.loads(one_journal(attributes))
     assert "'j'" in str(error.value)
 
 
@@ -431,21 +427,9 @@ def test_ur5_soft_drives_exact_model_against_pinocchio_fixed_point():
     load at the moved tool, Pinocchio's own Jacobian at the deflected pose, fixed-point iteration
     here), and its tool position is Pinocchio's at q + e; the linear answer is off by 0.5 mm.
     No play: the springs alone answer (closed form), not 'no load'."""
-    from test_auto_bound import example_robot_urdf
-
-    urdf = example_robot_urdf("ur_description/urdf/ur5_robot.urdf")
-    joints = [f"{j}_joint" for j in ("shoulder_pan", "shoulder_lift", "elbow")] + [
-        f"wrist_{i}_joint" for i in (1, 2, 3)
-    ]
     stiffness = np.array([2e3, 2e3, 1e3, 3e2, 3e2, 3e2])
-    q = np.array([0.3, -1.2, 1.4, -0.8, 1.1, 0.4])
-    block = "".join(
-        f'<joint name="{j}" driven="true" q="{float(v)!r}" drive_stiffness="{float(k)!r}"/>'
-        for j, k, v in zip(joints, stiffness, q)
-    )
-    mechanism = cp.loads(
-        urdf.replace("</robot>", f"<clearance_pin>{block}</clearance_pin></robot>")
-    )
+    urdf, mechanism = ur5_with_drives(stiffness)
+    joints, q = UR5_JOINTS, UR5_POSE
     force = np.array([30.0, -20.0, 50.0])
     loads = [PointForce("tool0", force, [0.0, 0.0, 0.0])]
     linear = mechanism.solve(loads, gravity=False)

@@ -22,7 +22,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .kkt import StackedContacts
+from .kkt import StackedContacts, residuals
 
 NEWTON_STEPS = 30
 SET_CHANGES = 8
@@ -71,25 +71,13 @@ def curvature_scaled(problem):
 def elastic_residuals(
     stack: StackedContacts, objective, hessian, y, multipliers, signs
 ) -> dict[str, float]:
-    """Measured KKT residuals (max norms) of the quadratic problem: stationarity of
-    :math:`f + H y + \\sum_j \\lambda_j \\nabla\\phi_j`, feasibility, complementarity, dual."""
+    """Measured KKT residuals (max norms) of the quadratic problem: those of :func:`.kkt.residuals`
+    with the potential's gradient :math:`f + H y` in place of f."""
     gradient = objective + hessian @ y
     if not stack.count:
-        return {
-            "stationarity": float(np.abs(gradient).max(initial=0.0)),
-            "feasibility": 0.0,
-            "complementarity": 0.0,
-            "dual_infeasibility": 0.0,
-        }
-    values, gradients = stack.evaluate(y, signs)
-    slab = ~stack.is_norm
-    values[slab] = np.abs(values[slab] + 1.0) - 1.0  # feasibility of a slab on either side
-    return {
-        "stationarity": float(np.abs(gradient + multipliers @ gradients).max(initial=0.0)),
-        "feasibility": float(values.max(initial=0.0)),
-        "complementarity": float(np.abs(multipliers * values).max(initial=0.0)),
-        "dual_infeasibility": float(max(0.0, -multipliers.min(initial=0.0))),
-    }
+        zero = {"feasibility": 0.0, "complementarity": 0.0, "dual_infeasibility": 0.0}
+        return {"stationarity": float(np.abs(gradient).max(initial=0.0)), **zero}
+    return residuals(stack, gradient, y, multipliers, signs)
 
 
 def polish_elastic(

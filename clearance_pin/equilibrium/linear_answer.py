@@ -47,34 +47,27 @@ def assemble_linear(
     with the solver's KKT ``residuals`` and the ones measured here (module docstring)."""
     x = prepared.x_from_y @ y
     gaps, force_rows = prepared.contact_state(x, multipliers, signs, problem.objective_scale)
-    return answer_of_x(
-        prepared, problem, x, gaps, force_rows, multipliers, status, method, solver_status,
-        iterations, polished, build_time, solve_time, residuals, loads, flat_notes,
-        output_points,
-    )  # fmt: skip
+    outcome = (status, method, solver_status, iterations, polished)
+    return answer_of_x(prepared, problem, x, (gaps, force_rows, multipliers), outcome,
+                       (build_time, solve_time), residuals, loads, flat_notes, output_points)  # fmt: skip
 
 
 def answer_of_x(
     prepared: PreparedGeometry,
     problem: ReducedProblem,
-    x,
-    gaps,
-    force_rows,
-    multipliers,
-    status,
-    method,
-    solver_status,
-    iterations,
-    polished,
-    build_time,
-    solve_time,
+    x: np.ndarray,
+    contacts: tuple,
+    outcome: tuple,
+    times: tuple[float, float],
     residuals,
     loads: tuple,
     flat_notes=(),
     output_points: tuple = (),
 ) -> Equilibrium:
-    """The answer of the unknowns x (n,) with its contact gaps [m] and stacked force rows [N]
-    (:meth:`.prepared.PreparedGeometry.contact_state`), the residuals measured here."""
+    """The answer of the unknowns x (n,) with its ``contacts`` = (gaps [m], stacked force rows
+    [N], multipliers) (:meth:`.prepared.PreparedGeometry.contact_state`), ``outcome`` and
+    ``times`` as :func:`linear_equilibrium` takes them, the residuals measured here."""
+    gaps, force_rows, multipliers = contacts
     torsor_array = prepared.torsor_array(x)
     twists = prepared.body_twists(x)
     stiffness = prepared.geometry.stiffness
@@ -105,8 +98,8 @@ def answer_of_x(
         multipliers,
         measured,
         float(problem.gradient @ x) + elastic_energy,
-        (status, method, solver_status, iterations, polished),
-        (build_time, solve_time),
+        outcome,
+        times,
         problem.free_descriptions + flat_notes,
         loads,
         output_points,
