@@ -8,7 +8,7 @@ BIN := $(VENV)/bin
 RUNTIME := $(VENV)/.runtime-installed
 TESTING := $(VENV)/.test-installed
 
-.PHONY: demo test validate clean
+.PHONY: demo test validate docs clean
 
 $(RUNTIME): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -28,13 +28,17 @@ demo: $(RUNTIME)
 # lint and types first (seconds), then the suite with one BLAS thread: the solver's matrices are
 # small, and threads fight on a busy machine.
 test: $(TESTING)
-	$(BIN)/ruff check clearance_pin tests benchmarks validation examples
-	$(BIN)/ruff format --check clearance_pin tests benchmarks validation examples
+	$(BIN)/ruff check clearance_pin tests benchmarks validation examples docs/build_api.py
+	$(BIN)/ruff format --check clearance_pin tests benchmarks validation examples docs/build_api.py
 	$(BIN)/mypy clearance_pin
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m pytest
 
 validate: $(TESTING)
 	$(BIN)/python validation/younes2013.py --json out/younes2013.json
+
+# the API reference from the docstrings (pdoc), out/api/index.html
+docs: $(TESTING)
+	$(BIN)/python docs/build_api.py out/api
 
 clean:
 	rm -rf $(VENV) out
