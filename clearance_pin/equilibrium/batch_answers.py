@@ -72,7 +72,7 @@ class StackedAnswers:
     @property
     def x(self) -> Array:
         """Unknowns x (N, n) [m, rad], :math:`x = Z Q y` as the item forms them."""
-        cached = self.__dict__.get("_x", self.given.get("x"))
+        cached: Array | None = self.__dict__.get("_x", self.given.get("x"))
         if cached is None:
             cached = self.__dict__["_x"] = self.y @ self.prepared.x_from_y.T
         return cached
@@ -81,7 +81,7 @@ class StackedAnswers:
 def contact_forces(answers: StackedAnswers) -> Array:
     """Force of the parent on the child at every contact point, clearance frame, (N, m, 3) [N],
     as :attr:`.result.Equilibrium.contacts` gives them (module docstring)."""
-    cached = answers.__dict__.get("_contact_forces")
+    cached: Array | None = answers.__dict__.get("_contact_forces")
     if cached is not None:
         return cached
     prepared, x = answers.prepared, answers.x
@@ -156,7 +156,7 @@ def _maybe_dependent(prepared: PreparedGeometry, x: Array, rows: Array, active: 
 
 def body_twists(answers: StackedAnswers) -> Array:
     """Spatial twist (v, omega) at the world origin of every body, (N, bodies, 6) [m, rad]."""
-    cached = answers.__dict__.get("_twists")
+    cached: Array | None = answers.__dict__.get("_twists")
     if cached is not None:
         return cached
     x, prepared = answers.x, answers.prepared

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 
@@ -81,7 +82,7 @@ class StackedReactions:
 
 def stacked_reactions(answers: StackedAnswers) -> StackedReactions:
     """The :class:`StackedReactions` of every stacked case of ``answers`` (module docstring)."""
-    cached = answers.__dict__.get("_reactions")
+    cached: StackedReactions | None = answers.__dict__.get("_reactions")
     if cached is not None:
         return cached
     mechanism = answers.mechanism
@@ -186,7 +187,7 @@ def stacked_reactions(answers: StackedAnswers) -> StackedReactions:
     return reactions
 
 
-def _se3(answers: StackedAnswers):
+def _se3(answers: StackedAnswers) -> Any:
     """The body placements of the one configuration as pin.SE3 (its Configuration's own)."""
     return answers.prepared.configuration.oMi
 

@@ -88,7 +88,7 @@ class BlockBatch(EquilibriumBatch):
                 item = self._assembled[position] = self._build(position)
         return item
 
-    def __reduce__(self):  # the arrays and the assembler travel, not assembled items
+    def __reduce__(self) -> tuple[Any, ...]:  # the arrays and the assembler travel, not items
         arrays = self._arrays or {}
         return (
             BlockBatch,

@@ -56,7 +56,7 @@ whose minimum-norm point there depends on the scaling.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
@@ -384,7 +384,7 @@ def _unique_exactly(s: BlockStructure, images: Array, multipliers: Array, loaded
     return clear
 
 
-def _shape_classes(s: BlockStructure) -> list[tuple]:
+def _shape_classes(s: BlockStructure) -> list[tuple[Any, ...]]:
     """The groups of one shape (rows x columns, ball/disc or slab, contacts' row pattern) stacked
     together, so that :func:`_unique_exactly` runs a few batched products, not one per group:
     (group indices, rows (G', k), their contacts, matrices (G', k, c), row bounds, is_norm,
@@ -392,7 +392,7 @@ def _shape_classes(s: BlockStructure) -> list[tuple]:
     cached = s.__dict__.get("_shape_classes")
     if cached is not None:
         return cached  # type: ignore[no-any-return]
-    found: dict[tuple, list[int]] = {}
+    found: dict[tuple[Any, ...], list[int]] = {}
     for g, (rows, matrix) in enumerate(zip(s.group_rows, s.group_matrices)):
         contact = s.row_contact[rows]
         starts = np.flatnonzero(np.r_[True, contact[1:] != contact[:-1]])

@@ -11,6 +11,7 @@ mechanism.
 from __future__ import annotations
 
 import bisect
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -41,10 +42,10 @@ class ChainedBatch(EquilibriumBatch):
             linear = replace(linear, mechanism=self._owner)
         return replace(item, mechanism=self._owner, linear=linear)
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[Any, ...]:
         return (ChainedBatch, (self._parts, self._owner))
 
-    def _joined(self, read) -> np.ndarray:
+    def _joined(self, read: Callable[[Any], np.ndarray]) -> np.ndarray:
         return np.concatenate([read(part) for part in self._parts])
 
     def torsors(self, joint: str) -> np.ndarray:

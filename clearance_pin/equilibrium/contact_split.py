@@ -57,7 +57,8 @@ def least_norm_split(columns: np.ndarray, forces: np.ndarray) -> np.ndarray:
         float(np.abs(columns).max()) * size, float(np.abs(resultant).max())
     ):
         return forces
-    return split
+    found: np.ndarray = split
+    return found
 
 
 def _non_negative(rows: np.ndarray, target: np.ndarray) -> np.ndarray | None:
@@ -82,7 +83,8 @@ def _non_negative(rows: np.ndarray, target: np.ndarray) -> np.ndarray | None:
         ):
             return exact
     if np.abs(rows @ rough - target).max() <= 1e-9 * float(np.abs(target).max(initial=0.0)):
-        return rough
+        least: np.ndarray = rough
+        return least
     return None
 
 

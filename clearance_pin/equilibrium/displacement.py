@@ -11,6 +11,9 @@ convention. The other conventions follow as for a twist (first order in the rota
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 
@@ -19,22 +22,23 @@ from ..errors import ArgumentError
 REFERENCE_FRAMES = (pin.LOCAL, pin.WORLD, pin.LOCAL_WORLD_ALIGNED)
 
 
-class Displacement(pin.Motion):
+class Displacement(pin.Motion):  # type: ignore[misc]  # pinocchio has no type information
     """A ``pin.Motion`` (``linear`` [m], ``angular`` [rad]) that also unpacks as the pair
     ``translation, rotation = displacement`` (copies) and indexes as one (``[0]``, ``[1]``)."""
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.linear.copy(), self.angular.copy()))
 
     def __getitem__(self, index: int) -> np.ndarray:
-        return (self.linear.copy(), self.angular.copy())[index]
+        pair: tuple[np.ndarray, np.ndarray] = (self.linear.copy(), self.angular.copy())
+        return pair[index]
 
     def __len__(self) -> int:
         return 2
 
 
 def displacement_in(
-    translation: np.ndarray, rotation: np.ndarray, nominal: pin.SE3, reference_frame
+    translation: np.ndarray, rotation: np.ndarray, nominal: pin.SE3, reference_frame: Any
 ) -> Displacement:
     """The :class:`Displacement` of a frame whose nominal world placement is ``nominal``, from
     its origin's translation (3,) [m] and rotation vector (3,) [rad] in world axes, expressed in

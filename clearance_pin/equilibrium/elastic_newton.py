@@ -23,6 +23,10 @@ from dataclasses import replace
 import numpy as np
 
 from .kkt import StackedContacts, residuals
+from .reduction import ReducedProblem
+
+Vector = np.ndarray
+Polished = tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]  # y, multipliers, sides
 
 NEWTON_STEPS = 30
 SET_CHANGES = 8
@@ -32,12 +36,13 @@ STALLED = 1e-12  # a residual this small that halves no more is round-off
 ROUND_OFF = 1e-15  # per unknown, of H's largest eigenvalue: below it an eigenvalue is zero
 
 
-def curvature_scaled(problem):
+def curvature_scaled(problem: ReducedProblem) -> tuple[ReducedProblem, np.ndarray | None]:
     r"""(the problem in w, T) with :math:`y = T w`, :math:`T = V \mathrm{diag}(1 /
     \sqrt{\max(\lambda_i, 1)})` from :math:`H = V \mathrm{diag}(\lambda) V^T`: every direction
     H curves by more than the unit of the load's objective gets unit curvature
     (:math:`f \to T^T f`, :math:`H \to T^T H T`, :math:`P_j \to P_j T`); the contacts and their
     multipliers are the same functions of w as of y. T is None when no curvature exceeds 1."""
+    assert problem.hessian is not None  # a problem with stiffness
     hessian = 0.5 * (problem.hessian + problem.hessian.T)
     curved = np.flatnonzero(np.any(hessian != 0.0, axis=1))  # play columns are exact zeros
     values, vectors = np.linalg.eigh(hessian[np.ix_(curved, curved)])
@@ -69,8 +74,9 @@ def curvature_scaled(problem):
 
 
 def elastic_residuals(
-    stack: StackedContacts, objective, hessian, y, multipliers, signs
-) -> dict[str, float]:
+    stack: StackedContacts, objective: Vector, hessian: Vector, y: Vector, multipliers: Vector,
+    signs: Vector,
+) -> dict[str, float]:  # fmt: skip
     """Measured KKT residuals (max norms) of the quadratic problem: those of :func:`.kkt.residuals`
     with the potential's gradient :math:`f + H y` in place of f."""
     gradient = objective + hessian @ y
@@ -81,8 +87,9 @@ def elastic_residuals(
 
 
 def polish_elastic(
-    stack: StackedContacts, objective, hessian, y0, multipliers0, accept: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]] | None:
+    stack: StackedContacts, objective: Vector, hessian: Vector, y0: Vector, multipliers0: Vector,
+    accept: float,
+) -> Polished | None:  # fmt: skip
     """(y, multipliers, slab sides, residuals) verified to ``accept``, or None.
 
     Starts from the backend's (y0, multipliers0) with the contacts that carry a force or touch
@@ -102,7 +109,10 @@ def polish_elastic(
     return None
 
 
-def _with_set_changes(stack, objective, hessian, y, multipliers, signs, active, accept):
+def _with_set_changes(
+    stack: StackedContacts, objective: Vector, hessian: Vector, y: Vector, multipliers: Vector,
+    signs: Vector, active: Vector, accept: float,
+) -> Polished | None:  # fmt: skip
     for _ in range(SET_CHANGES):
         solved = _newton(stack, objective, hessian, y, multipliers, signs, active)
         if solved is None:
@@ -123,7 +133,10 @@ def _with_set_changes(stack, objective, hessian, y, multipliers, signs, active, 
     return None
 
 
-def _newton(stack, objective, hessian, y, multipliers, signs, active):
+def _newton(
+    stack: StackedContacts, objective: Vector, hessian: Vector, y: Vector, multipliers: Vector,
+    signs: Vector, active: Vector,
+) -> tuple[Vector, Vector] | None:  # fmt: skip
     """Newton's method on F(y, lambda_A) = 0 (module docstring); (y, multipliers) or None."""
     y = y.copy()
     indices = np.flatnonzero(active)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -30,7 +31,9 @@ from .small_displacement import tree_joint_basis
 KKT = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
 
 
-def superposed(mechanism, prepared: PreparedGeometry, loads, play: Equilibrium, started: float):
+def superposed(
+    mechanism: Any, prepared: PreparedGeometry, loads: Any, play: Equilibrium, started: float
+) -> Equilibrium:
     """The answer of ``mechanism`` (a tree with stiffness, prepared at the configuration of
     ``prepared``) for ``loads`` from ``play``, the answer of its rigid twin
     (:meth:`~clearance_pin.mechanism.Mechanism.without_stiffness`) for the same loads."""
@@ -76,7 +79,7 @@ def superposed(mechanism, prepared: PreparedGeometry, loads, play: Equilibrium, 
     return replace(answer, free_motions=play.free_motions)  # the play's, flat directions named
 
 
-def spring_deflections(joint, reactions: np.ndarray) -> np.ndarray:
+def spring_deflections(joint: Any, reactions: np.ndarray) -> np.ndarray:
     r"""The deflection (N, 6) [m, rad] of ``joint``'s spring under its reactions (N, 6) [N, N m]
     (the parent's wrench on the child, clearance frame): :math:`e = -K^+ W`, K's inverse on the
     directions that deflect. In a tree this is the :math:`e_i = -g_i / k_i` of the module
@@ -84,7 +87,8 @@ def spring_deflections(joint, reactions: np.ndarray) -> np.ndarray:
     rigid twin."""
     directions, stiffnesses = elastic(joint.clearance)
     compliance = directions @ (directions.T / stiffnesses[:, None])
-    return -reactions @ compliance.T
+    deflections: np.ndarray = -reactions @ compliance.T
+    return deflections
 
 
 __all__ = ["spring_deflections", "superposed"]

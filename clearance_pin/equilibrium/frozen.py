@@ -46,7 +46,7 @@ def _defaults(cls: type) -> tuple[dict[str, Any], frozenset[str]]:
     if hasattr(cls, "__post_init__") or "__slots__" in cls.__dict__:
         raise ClearancePinError(f"{cls.__name__} needs its own __init__")
     defaults: dict[str, Any] = {}
-    for field in dataclasses.fields(cls):  # type: ignore[arg-type]
+    for field in dataclasses.fields(cls):
         if field.default_factory is not dataclasses.MISSING:
             raise ClearancePinError(
                 f"{cls.__name__}.{field.name}: a default factory needs __init__"

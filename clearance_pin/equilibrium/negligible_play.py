@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import replace
+from typing import Any
 
 from ..errors import SuspectValueWarning
 
@@ -21,7 +22,9 @@ NEGLIGIBLE_PLAY = 1e-9  # of the mechanism's largest play
 PLAY_FIELDS = ("radial", "axial", "play_z")  # the Clearance fields that bound contacts [m]
 
 
-def rigid_negligible_plays(joints: tuple, largest: float | None = None, source: str = "") -> tuple:
+def rigid_negligible_plays(
+    joints: tuple[Any, ...], largest: float | None = None, source: str = ""
+) -> tuple[Any, ...]:
     """``joints`` (TreeJoint or LoopJoint) with every play below 1e-9 of ``largest`` (default:
     the largest play of ``joints``) set to zero, warned about; the joints themselves when none
     is."""

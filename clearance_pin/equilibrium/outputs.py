@@ -16,6 +16,7 @@ links: the links that carry no child joint (fixed joints included), the end of e
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -60,7 +61,9 @@ def load_point_name(load: PointForce) -> str:
     return f"{load.link}@[{x:.6g} {y:.6g} {z:.6g}]"
 
 
-def resolve_outputs(mechanism, loads=(), outputs=None) -> tuple[OutputPoint, ...]:
+def resolve_outputs(
+    mechanism: Any, loads: Any = (), outputs: Any = None
+) -> tuple[OutputPoint, ...]:
     """The output points of a solve: the loaded points, then ``outputs`` (Pinocchio frame names;
     default: the leaf links). Raises ArgumentError naming an unknown frame and the valid ones.
 
@@ -86,10 +89,11 @@ def resolve_outputs(mechanism, loads=(), outputs=None) -> tuple[OutputPoint, ...
         points = _resolve(mechanism, loads, outputs)
         if len(kept) < 256:
             kept[key] = points
-    return points
+    resolved: tuple[OutputPoint, ...] = points
+    return resolved
 
 
-def _resolve(mechanism, loads, outputs) -> tuple[OutputPoint, ...]:
+def _resolve(mechanism: Any, loads: Any, outputs: Any) -> tuple[OutputPoint, ...]:
     model = mechanism.model
     points: dict[str, OutputPoint] = {}
     for load in loads:
@@ -125,7 +129,9 @@ def _resolve(mechanism, loads, outputs) -> tuple[OutputPoint, ...]:
     return tuple(points.values())
 
 
-def output_displacements(equilibrium, points=None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def output_displacements(
+    equilibrium: Any, points: Any = None
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Name -> (translation (3,) [m], rotation (3,) [rad]), world axes, of every output point of
     ``equilibrium`` (see the module docstring for both formulations)."""
     points = equilibrium.output_points if points is None else points

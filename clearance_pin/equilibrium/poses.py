@@ -10,6 +10,7 @@ is the joint's finite relative motion, on which the contact conditions are writt
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -39,7 +40,7 @@ class ClearanceFrames:
         return self.parent.actInv(self.child)
 
 
-def clearance_frames(equilibrium) -> dict[str, ClearanceFrames]:
+def clearance_frames(equilibrium: Any) -> dict[str, ClearanceFrames]:
     """:class:`ClearanceFrames` of every joint (tree and loop) of ``equilibrium``'s mechanism."""
     mechanism = equilibrium.mechanism
     model = mechanism.model

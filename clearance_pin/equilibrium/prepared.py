@@ -19,6 +19,7 @@ from __future__ import annotations
 import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -34,6 +35,7 @@ from .reduction import (
     ROUND_OFF_WORK,
     UNBOUNDED_FRACTION,
     ReducedGeometry,
+    ReducedProblem,
     describe_motion,
     reduce_geometry,
     with_scaled_load,
@@ -138,7 +140,7 @@ class PreparedGeometry:
             wrench[body] = load.wrench
         return wrench
 
-    def problem(self, loads):
+    def problem(self, loads: Any) -> ReducedProblem:
         """The reduced problem of ``loads`` (raises UnboundedLoadError, see
         :func:`~.reduction.with_scaled_load`)."""
         wrench = self.wrenches(loads)

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, fields
+from typing import Any
 
 from ..errors import NotFoundError
 
@@ -58,7 +59,9 @@ class Tolerances:
     closure: float = FEASIBILITY_TOLERANCE
 
 
-def verified(statics, violation_rel, dual=0.0, tolerances: Tolerances = Tolerances()):
+def verified(
+    statics: Any, violation_rel: Any, dual: Any = 0.0, tolerances: Tolerances = Tolerances()
+) -> Any:
     """The one verifier's test of the measured residuals, for one answer (floats) or a batch
     (arrays, element-wise): statics residual (relative to the load), penetration over the play
     and pulling multiplier each within :class:`Tolerances`. Every engine's answer passes it
@@ -71,7 +74,7 @@ def verified(statics, violation_rel, dual=0.0, tolerances: Tolerances = Toleranc
 
 
 @dataclass(frozen=True)
-class Residuals(Mapping):
+class Residuals(Mapping[str, float]):
     """Measured residuals of one answer (see the module docstring); read like a mapping of the
     quantities measured (``residuals["statics"]``, ``dict(residuals)``)."""
 

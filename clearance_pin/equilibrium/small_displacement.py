@@ -105,7 +105,7 @@ def build_maps(
     data: Any,
     tree_joints: tuple[TreeJoint, ...],
     loop_joints: tuple[LoopJoint, ...],
-    configuration=None,
+    configuration: Any = None,
 ) -> SmallDisplacementMaps:
     """Build the maps at the configuration already placed in ``data`` (oMi and oMf up to date:
     a ``pin.Data``, or a :class:`~clearance_pin.mechanism.Configuration`).
@@ -125,7 +125,7 @@ def build_maps(
     ] = {}  # per tree joint: how many of its columns are play (the rest deflect)
     loop_columns: dict[str, tuple[int, np.ndarray]] = {}  # loop joint -> (first column, D)
 
-    def add_columns(name: str, basis: np.ndarray, values) -> int:
+    def add_columns(name: str, basis: np.ndarray, values: Any) -> int:
         start = len(variable_joint)
         variable_joint.extend([name] * basis.shape[1])
         variable_basis.extend(basis.T)

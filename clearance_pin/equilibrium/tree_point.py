@@ -74,15 +74,16 @@ class TreePoint:
             start, stop = columns[i]
             oMc = oMi[i] * pin.SE3(joint.rotation, np.zeros(3))
             rows[i][:, start:stop] += oMc.action @ tree_joint_basis(joint)
-        return (rows.reshape(-1, x.shape[-1]) @ x).reshape(model.njoints, 6)
+        twists: np.ndarray = (rows.reshape(-1, x.shape[-1]) @ x).reshape(model.njoints, 6)
+        return twists
 
-    def body_motions(self, twists: np.ndarray, names) -> dict:
+    def body_motions(self, twists: np.ndarray, names: Any) -> dict[str, Any]:
         """Body name -> (translation of its frame origin [m], rotation [rad]), world axes."""
         origins = np.array([m.translation for m in self.configuration.oMi])
         return body_motions(twists, origins, names)
 
 
-def body_motions(twists: np.ndarray, origins: np.ndarray, names) -> dict:
+def body_motions(twists: np.ndarray, origins: np.ndarray, names: Any) -> dict[str, Any]:
     r"""Body name -> (:math:`v_i + \omega_i \times p_i` [m], :math:`\omega_i` [rad]): the motion of
     each body's frame origin p_i (bodies, 3) [m] from its twist at the world origin (bodies, 6)."""
     w, p = twists[:, 3:], origins
