@@ -17,6 +17,12 @@ the drift cancels in each pair. Timed per paper case:
 - ``batch``: ``mechanism.solve_many`` over the loads in a new random order against a loop of the
   peer over the same order, ``repeats`` times alternating, a ratio per repeat.
 
+Beside them, the floor of each case (floor.py, in the same process after the pairs): Newton on
+the KKT system of a known active set: the compiled kernel alone on one load
+(``floor_compiled_us``: no Python around the step), NumPy on a stack of loads
+(``floor_vectorised_us``, per load) and NumPy one load at a time (``floor_single_us``: each step a
+Python call), the cost below which no re-solve of this algorithm goes.
+
 The kernel is loaded first, as a planner does (``fast_path.load_kernel()``); the loads are
 work_precision.py's (same seed, same perturbation). Errors are not measured here (see
 work_precision.py: the same paths on the same loads).
@@ -37,6 +43,7 @@ import time
 import zlib
 from pathlib import Path
 
+import floor
 import numpy as np
 import peers
 import work_precision as wp
@@ -136,7 +143,39 @@ def paired_case(case: wp.Case, repeats: int, seed: int) -> dict:
             times[0].append(pair[0] / len(loads))
             times[1].append(pair[1] / len(loads))
         out["batch"][name] = _summary(*times)
+    out["floor"] = _floor(case)
     return out
+
+
+def _floor(case: wp.Case) -> dict:
+    """floor.py's single and vectorised Newton on a known active set of the case's loads
+    (timings only: the answers are checked against references in work_precision.py)."""
+    from clearance_pin.equilibrium.prepared import prepared_geometry
+
+    mechanism = case.mechanism
+    prepared = prepared_geometry(mechanism)
+    resolved = [mechanism.resolve_loads(loads) for loads in case.perturbed]
+    problems = [prepared.problem(loads) for loads in resolved]
+    found = floor.floor_case(
+        prepared,
+        problems,
+        prepared.problem(mechanism.resolve_loads(case.nominal)),
+        lambda x: x,
+        [None] * len(problems),
+        peers.ReducedClarabel(1e-10),
+        lambda vector, reference: (0.0, 0.0, 0.0),
+        rows=2000,
+        loads=resolved,
+    )
+    if not found.get("measured"):
+        return {"measured": False}
+    return {
+        "measured": True,
+        "floor_compiled_us": 1e6 * found["compiled_s"] if "compiled_s" in found else None,
+        "floor_single_us": 1e6 * found["single_s"],
+        "floor_vectorised_us": 1e6 * found["vectorised_per_load_s"],
+        "loads_on_known_set": found["loads_on_known_set"],
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -159,6 +198,15 @@ def main(argv: list[str] | None = None) -> int:
         case.perturbed = wp.perturbed_loads(case.mechanism, args.loads, settings.perturbation, rng)
         results[case.id] = paired_case(case, args.repeats, settings.seed + 1)
         row = results[case.id]
+        floor_row = row["floor"]
+        floor_text = "; floor not measured"
+        if floor_row.get("measured"):
+            compiled = floor_row["floor_compiled_us"]
+            floor_text = (
+                f"; floor {'-' if compiled is None else f'{compiled:.1f}'} us compiled, "
+                f"{floor_row['floor_vectorised_us']:.2f} us vectorised NumPy, "
+                f"{floor_row['floor_single_us']:.0f} us NumPy one by one"
+            )
         print(
             f"{case.id}: "
             + "; ".join(
@@ -166,7 +214,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"{row[path]['clarabel_prebuilt']['ratio_median']:.2f} "
                 f"({row[path]['clarabel_prebuilt_default']['ours_us']:.0f} us ours)"
                 for path in PATHS
-            ),
+            )
+            + floor_text,
             flush=True,
         )
     worst = {
