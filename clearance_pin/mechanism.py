@@ -7,6 +7,7 @@ clearance or nominal configuration of the same structure.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -19,17 +20,13 @@ from .arguments import (
     check_solve_many,
 )
 from .equilibrium.cache import SolveCache
+from .equilibrium.formulation import solve_case
 from .equilibrium.negligible_play import rigid_negligible_plays
-from .equilibrium.outputs import resolve_outputs
-from .equilibrium.second_order import estimate_difference
-from .equilibrium.solve import solve_linear
 from .errors import (
     ClearancePinError,
     LoadError,
     ModelError,
-    NearSingularError,
     NotFoundError,
-    SolverError,
     StiffnessLeftOutWarning,
 )
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
@@ -419,60 +416,7 @@ class Mechanism:
         gravity_load = False if gravity is False else gravity
         resolved = self.resolve_loads(loads, gravity_load)
         check_load_magnitudes(resolved)
-        try:
-            return self._solve(resolved, exact, q, tol, backend, accuracy, warm_start, outputs)
-        except (np.linalg.LinAlgError, OverflowError, FloatingPointError, ValueError) as exc:
-            if isinstance(exc, ClearancePinError):
-                raise
-            raise SolverError(
-                f"numerical failure in {self.name!r} ({type(exc).__name__}: {exc}); check the "
-                "model's sizes and clearances for extreme values",
-                "numerical error",
-            ) from None
-
-    def _solve(self, resolved, exact, q, tol, backend, accuracy, warm_start, outputs=None):
-        points = resolve_outputs(self, resolved, outputs)
-        try:
-            linear = solve_linear(self, resolved, q, tol, backend, warm_start, points)
-        except NearSingularError as near:
-            if not exact:
-                raise
-            # near a toggle the linear model has no meaningful answer; the exact one does
-            result = _exact(self, resolved, q, near.answer, tol, from_nominal=True)
-            note = (
-                "near a singular position of the loop closure the small-displacement model "
-                "has no verified answer (.linear is its unverified one): the exact model was "
-                "solved from the nominal position"
-            )
-            return replace(result, note=f"{note}; {result.note}" if result.note else note)
-        if exact == "auto":
-            estimate = estimate_difference(linear, resolved, q, points)
-            error = max(estimate.translation_m, estimate.rotation_rad * self.length_scale())
-            linear = replace(
-                linear,
-                residuals=replace(linear.residuals, second_order_m=error),
-                difference_bound=estimate.as_dict(),
-            )
-            if error <= accuracy:
-                return replace(
-                    linear,
-                    note=(
-                        f"auto: small-displacement model kept, its estimated difference from the "
-                        f"exact model at the outputs {error:.2e} m <= accuracy {accuracy:.0e} m"
-                    ),
-                )
-            result = _exact(self, resolved, q, linear, tol)
-            why = (
-                f"estimated difference from the exact model at the outputs {error:.2e} m > "
-                f"accuracy {accuracy:.0e} m"
-                if estimate.reliable
-                else f"no reliable second-order estimate ({estimate.reason})"
-            )
-            note = f"auto: exact model run, {why}" + (f"; {result.note}" if result.note else "")
-            return replace(result, difference_bound=linear.difference_bound, note=note)
-        if not exact:
-            return linear
-        return _exact(self, resolved, q, linear, tol)
+        return solve_case(self, resolved, exact, q, tol, backend, accuracy, warm_start, outputs)
 
     def envelope(self, output, q=None, exact: bool = False, **options):
         """The clearance envelope of ``output`` (a frame, ``"link@[x y z]"`` or ``(link, point)``):
@@ -512,6 +456,12 @@ class Mechanism:
         :meth:`solve` but ``q``, and executor, chunks, errors, progress)."""
         from .equilibrium.batch import solve_many
 
+        # every case checked here, before any is solved: an iterator is read into a list first
+        # (the batches solve each case by the core, Mechanism.solve's checks behind them)
+        if isinstance(loads, Iterator):
+            loads = list(loads)
+        if isinstance(configurations, Iterator):
+            configurations = list(configurations)
         check_solve_many(self, loads, configurations, options)
         return solve_many(self, loads, configurations, **options)
 
@@ -540,10 +490,3 @@ def _warn_stiffness_left_out(mechanism: Mechanism, what: str) -> None:
             ),
             stacklevel=3,
         )
-
-
-def _exact(mechanism, loads, q, linear, tol, from_nominal=False):
-    """The exact model's solve; imported on first use (CasADi loads then, not at import)."""
-    from .equilibrium.exact import solve_exact_model
-
-    return solve_exact_model(mechanism, loads, q, linear, tol, from_nominal)

@@ -15,6 +15,7 @@ import threading
 import time
 from collections.abc import Sequence
 from concurrent.futures import Executor, ThreadPoolExecutor
+from typing import Any
 
 import numpy as np
 
@@ -27,6 +28,7 @@ from .batch_newton import batched_newton, stacked_evaluation
 from .batch_reactions import PARTS, stacked_reactions
 from .cone_solver import acceptance
 from .fast_path import WARM_ROUNDS, fast_terms
+from .formulation import solve_with_options
 from .kkt import UNLOADED
 from .linear_answer import assemble_linear
 from .method import Method
@@ -329,10 +331,10 @@ def _cases(mechanism, loads, configurations) -> Cases:
 def _solve_chunk(mechanism, cases, options: dict, errors: str, progress=None, start=0) -> list:
     """Solve cases in order (each warm-started from the previous one); ``start``: the index of
     the first in the whole batch (an error raised names its case)."""
-    results = []
+    results: list[Any] = []  # answers, or the errors of their cases
     for k, (case_loads, q) in enumerate(cases):
         try:
-            results.append(mechanism.solve(loads=case_loads, q=q, **options))
+            results.append(solve_with_options(mechanism, case_loads, q, options))
         except ClearancePinError as exc:
             if errors == "raise":
                 name_case(exc, start + k)

@@ -35,6 +35,7 @@ from .blocks import (
     reduced_unknowns,
 )
 from .cache import LeastRecentlyUsed
+from .formulation import solve_with_options
 from .linear_answer import assemble_linear
 from .load_table import LoadTable, body_wrenches, load_table
 from .method import Method
@@ -306,7 +307,7 @@ def _finish(
     for i in np.flatnonzero(~done).tolist():
         case_loads, q = cases[i]
         try:
-            items[i] = mechanism.solve(loads=case_loads, q=q, **options)
+            items[i] = solve_with_options(mechanism, case_loads, q, options)
         except ClearancePinError as exc:
             if errors == "raise":
                 name_case(exc, i)

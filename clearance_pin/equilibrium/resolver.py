@@ -25,6 +25,7 @@ from ..model.loads import PointForce, Torque, with_vector
 from .blocks import block_structure
 from .cone_solver import clarabel_available
 from .fast_path import BoundLoads, FastTerms, fast_terms, kernel_installed
+from .formulation import solve_case
 from .method import Method
 from .outputs import resolve_outputs
 from .plan import plan_linear
@@ -115,9 +116,9 @@ class Resolver:
                 return answer
         exact, accuracy, outputs = self._exact
         try:
-            if exact:  # the exact model: Mechanism.solve's way, from the resolved loads
-                return mechanism._solve(
-                    self._loads_with(vector), exact, self._q, tol, backend, accuracy,
+            if exact:  # the exact model, from the resolved loads
+                return solve_case(
+                    mechanism, self._loads_with(vector), exact, self._q, tol, backend, accuracy,
                     warm_start, outputs,
                 )  # fmt: skip
             return solve_linear(

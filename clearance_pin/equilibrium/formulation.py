@@ -1,0 +1,135 @@
+"""One case solved in the formulation asked for: the small-displacement model, the exact one, or
+``exact="auto"`` deciding between them by the second-order estimate; the core every entry point
+calls (:meth:`~clearance_pin.mechanism.Mechanism.solve` after checking its arguments, the batches
+for each case they do not solve on stacked arrays, the resolver for an exact re-solve).
+
+The loads are resolved and checked by the caller (the mechanism's load front end,
+``resolve_loads``); a NumPy or SciPy failure deep inside a solve becomes a
+:class:`~clearance_pin.errors.SolverError` naming the mechanism.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from ..errors import ClearancePinError, NearSingularError, SolverError
+from .outputs import resolve_outputs
+from .result import Equilibrium
+from .second_order import estimate_difference
+from .solve import solve_linear
+
+DEFAULTS = {
+    "exact": False,
+    "gravity": None,
+    "tol": 1e-12,
+    "backend": "auto",
+    "accuracy": 1e-9,
+    "warm_start": True,
+    "outputs": None,
+}
+
+
+def solve_case(
+    mechanism: Any,
+    resolved: Any,
+    exact: bool | str,
+    q: np.ndarray | None,
+    tol: float,
+    backend: str,
+    accuracy: float,
+    warm_start: bool,
+    outputs: Any = None,
+) -> Equilibrium:
+    """The equilibrium of ``mechanism`` under the resolved loads ``resolved`` at ``q`` (None:
+    nominal), options as :meth:`~clearance_pin.mechanism.Mechanism.solve` takes them."""
+    try:
+        return _formulated(mechanism, resolved, exact, q, tol, backend, accuracy, warm_start,
+                           outputs)  # fmt: skip
+    except (np.linalg.LinAlgError, OverflowError, FloatingPointError, ValueError) as exc:
+        if isinstance(exc, ClearancePinError):
+            raise
+        raise SolverError(
+            f"numerical failure in {mechanism.name!r} ({type(exc).__name__}: {exc}); check the "
+            "model's sizes and clearances for extreme values",
+            "numerical error",
+        ) from None
+
+
+def solve_with_options(
+    mechanism: Any, loads: Any, q: Any, options: Mapping[str, Any]
+) -> Equilibrium:
+    """:func:`solve_case` of one batch case: its ``loads`` (None: the model's) resolved with the
+    ``gravity`` option, the other options of ``solve`` (checked by the batch's front door)."""
+    chosen = {**DEFAULTS, **options}
+    gravity = chosen["gravity"]
+    resolved = mechanism.resolve_loads(loads, False if gravity is False else gravity)
+    configuration = None if q is None else np.asarray(q, dtype=float)
+    return solve_case(mechanism, resolved, chosen["exact"], configuration, chosen["tol"],
+                      chosen["backend"], chosen["accuracy"], chosen["warm_start"],
+                      chosen["outputs"])  # fmt: skip
+
+
+def _formulated(
+    mechanism: Any, resolved: Any, exact: bool | str, q: np.ndarray | None, tol: float,
+    backend: str, accuracy: float, warm_start: bool, outputs: Any,
+) -> Equilibrium:  # fmt: skip
+    points = resolve_outputs(mechanism, resolved, outputs)
+    try:
+        linear = solve_linear(mechanism, resolved, q, tol, backend, warm_start, points)
+    except NearSingularError as near:
+        if not exact:
+            raise
+        # near a toggle the linear model has no meaningful answer; the exact one does
+        result = _exact(mechanism, resolved, q, near.answer, tol, from_nominal=True)
+        note = (
+            "near a singular position of the loop closure the small-displacement model "
+            "has no verified answer (.linear is its unverified one): the exact model was "
+            "solved from the nominal position"
+        )
+        return replace(result, note=f"{note}; {result.note}" if result.note else note)
+    if exact == "auto":
+        estimate = estimate_difference(linear, resolved, q, points)
+        error = max(estimate.translation_m, estimate.rotation_rad * mechanism.length_scale())
+        linear = replace(
+            linear,
+            residuals=replace(linear.residuals, second_order_m=error),
+            difference_bound=estimate.as_dict(),
+        )
+        if error <= accuracy:
+            return replace(
+                linear,
+                note=(
+                    f"auto: small-displacement model kept, its estimated difference from the "
+                    f"exact model at the outputs {error:.2e} m <= accuracy {accuracy:.0e} m"
+                ),
+            )
+        result = _exact(mechanism, resolved, q, linear, tol)
+        why = (
+            f"estimated difference from the exact model at the outputs {error:.2e} m > "
+            f"accuracy {accuracy:.0e} m"
+            if estimate.reliable
+            else f"no reliable second-order estimate ({estimate.reason})"
+        )
+        note = f"auto: exact model run, {why}" + (f"; {result.note}" if result.note else "")
+        return replace(result, difference_bound=linear.difference_bound, note=note)
+    if not exact:
+        return linear
+    return _exact(mechanism, resolved, q, linear, tol)
+
+
+def _exact(
+    mechanism: Any, loads: Any, q: np.ndarray | None, linear: Equilibrium, tol: float,
+    from_nominal: bool = False,
+) -> Equilibrium:  # fmt: skip
+    """The exact model's solve; imported on first use (CasADi loads then, not at import)."""
+    from .exact import solve_exact_model
+
+    answer: Equilibrium = solve_exact_model(mechanism, loads, q, linear, tol, from_nominal)
+    return answer
+
+
+__all__ = ["DEFAULTS", "solve_case", "solve_with_options"]
