@@ -95,6 +95,8 @@ class SolveCache:
         self.geometries: LeastRecentlyUsed[Any, Any] = LeastRecentlyUsed(GEOMETRIES_KEPT)
         self.tree_geometry: Any = None
         self.play_twin: Any = None  # a tree with stiffness: the same tree with rigid joints
+        # the closure's idle passive motions, with the (model, tree, loop joints) they count
+        self.idle_motions: tuple[tuple[object, ...], int] | None = None
         self.geometry_terms: dict[int, tuple[Any, Any]] = {}
         self.warm: dict[tuple, Any] = {}
         self.projection_hints: dict[tuple, set[bytes]] = {}

@@ -211,7 +211,7 @@ def idle_motion_count(mechanism: Mechanism) -> int:
     the structural null space of the closure Jacobian (a rod between two ball joints spins
     freely). A configuration whose closure Jacobian loses more rank than this is singular."""
     owner = (mechanism.model, mechanism.tree_joints, mechanism.loop_joints)
-    cached: tuple[tuple[object, ...], int] | None = getattr(mechanism, "_idle_motions", None)
+    cached: tuple[tuple[object, ...], int] | None = mechanism.cache.idle_motions
     if cached is not None and all(a is b for a, b in zip(cached[0], owner)):
         return cached[1]
     data = mechanism.cache.data  # this thread's: no second Pinocchio data (cubic in nv)
@@ -219,8 +219,8 @@ def idle_motion_count(mechanism: Mechanism) -> int:
     length = max(mechanism.length_scale(), 1e-300)
     jacobian, _ = _scaled_jacobian(mechanism, data, mechanism.q_nominal, motions, length)
     count = int(_gauss_newton_step(jacobian, np.zeros(jacobian.shape[0]))[1].shape[1])
-    # kept on the mechanism, not in its SolveCache (issue 11: one owner of the solve state)
-    mechanism._idle_motions = (owner, count)  # type: ignore[attr-defined]
+    # kept with what the mechanism's solves build (its cache), for the joints it was counted on
+    mechanism.cache.idle_motions = (owner, count)
     return count
 
 
