@@ -208,16 +208,43 @@ def test_an_mjcf_joint_equality_is_read_as_mujoco_means_it(tmp_path):
         cp.load(str(path), clearances=MJCF_PLAY)
 
 
-def test_a_pinocchio_mimic_model_says_what_to_do():
-    """from_model on a pin.Model built with mimic=True: a ModelError saying how to read it."""
+def test_a_pinocchio_mimic_model_reads_as_its_urdf():
+    """from_model on a pin.Model built with mimic=True (issue 23): its mimic joint becomes the
+    prismatic joint it moves along, tied to its leader; the same answer as the URDF read with its
+    <mimic> by clearance_pin.load, and the same kinematics as Pinocchio's own mimic=False model
+    (the reference); a q of the mimic model's size is read by joint name."""
     gripper = """<robot name="gripper">
   <link name="palm"/><link name="left"/><link name="right"/>
   <joint name="left_finger" type="prismatic"><parent link="palm"/><child link="left"/>
     <axis xyz="0 1 0"/><limit lower="0" upper="0.04" effort="20" velocity="0.2"/></joint>
   <joint name="right_finger" type="prismatic"><parent link="palm"/><child link="right"/>
-    <axis xyz="0 -1 0"/><limit lower="0" upper="0.04" effort="20" velocity="0.2"/>
-    <mimic joint="left_finger"/></joint>
+    <origin xyz="0 0.02 0"/><axis xyz="0 -1 0"/>
+    <limit lower="0" upper="0.04" effort="20" velocity="0.2"/>
+    <mimic joint="left_finger" multiplier="0.5" offset="0.001"/></joint>
 </robot>"""
-    model = pin.buildModelFromXML(gripper, mimic=True)
-    with pytest.raises(cp.ModelError, match=r"clearance_pin\.load"):
-        cp.from_model(model, clearances={"left_finger": {"driven": True, "q": 0.01}})
+    clearances = {
+        "left_finger": {"driven": True, "type": "prismatic", "radial_clearance": 1e-5,
+                        "length": 0.02, "width": 0.01, "height": 0.01},
+        "right_finger": {"type": "prismatic", "radial_clearance": 2e-5, "length": 0.02,
+                         "width": 0.01, "height": 0.01},
+    }  # fmt: skip
+    mimic_model = pin.buildModelFromXML(gripper, mimic=True)
+    assert mimic_model.nq == 1
+    mechanism = cp.from_model(mimic_model, clearances=clearances, q=np.array([0.03]))
+    reference = pin.buildModelFromXML(gripper)  # Pinocchio's, without the mimic
+    q = mechanism.q_nominal
+    assert q[reference.joints[reference.getJointId("right_finger")].idx_q] == pytest.approx(
+        0.5 * 0.03 + 0.001
+    )
+    model, data, expected = mechanism.model, mechanism.model.createData(), reference.createData()
+    pin.framesForwardKinematics(model, data, q)
+    pin.framesForwardKinematics(reference, expected, q)
+    for frame in ("left", "right"):
+        placed = data.oMf[model.getFrameId(frame)].homogeneous
+        assert placed == pytest.approx(expected.oMf[reference.getFrameId(frame)].homogeneous)
+    loads = [cp.PointForce("right", [0.0, 0.0, -5.0], [0.0, 0.0, 0.0])]
+    answer = mechanism.solve(loads, gravity=False)
+    read = cp.loads(gripper, clearances=clearances).solve(loads, q=q, gravity=False)
+    assert answer.ok and answer.torsor("right_finger") == pytest.approx(
+        read.torsor("right_finger"), abs=1e-15
+    )

@@ -15,6 +15,7 @@ clearance file written for the URDF reads the same beside the model built from i
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any, TypeAlias
 
 import numpy as np
@@ -24,8 +25,10 @@ from numpy.typing import ArrayLike
 from ..errors import ArgumentError, NotFoundError
 from .block import empty_block, joint_table, read_block, read_loop_joints, set_nominal
 from .clearance_file import ClearanceSource, clearance_block, loop_joint_elements
+from .couplings import coupled
 from .description import MechanismDescription, combined_source, describe
 from .loads import Gravity, PointForce, Torque
+from .mimic_model import configuration_of, without_mimic
 from .xml_values import label_of
 
 # q=... of from_model: a configuration (nq,), or joint name -> value [rad or m]
@@ -72,12 +75,17 @@ def describe_model(
     """
     if not isinstance(model, pin.Model):
         raise ArgumentError("model", "a pinocchio.Model", model)
-    model = pin.Model(model)  # a copy
+    given = model
+    # a copy, its mimic joints (mimic=True) as ordinary joints tied by couplings
+    model, couplings = without_mimic(pin.Model(model), source)
+    if couplings and q is not None and not isinstance(q, Mapping):
+        q = _unmimicked_q(given, model, q)
     beside = clearance_block(clearances, dict_source=source)
     block = beside.element if beside is not None else empty_block()
     block_source = beside.source if beside is not None else source
     kind = beside.kind if beside is not None else "model"
-    contents = read_block(block_source, block, model, joint_table(model, "model"), kind)
+    table = replace(joint_table(model, "model"), couplings=couplings)
+    contents = read_block(block_source, block, model, table, kind)
     from_file = beside.source if beside is not None and beside.source != source else None
     description = describe(model, contents, combined_source(source, from_file), name or model.name)
     changes: dict[str, Any] = {}
@@ -95,10 +103,23 @@ def describe_model(
     if q is not None:
         if contents.nominal_given:
             raise ArgumentError("q", f"nominal values in {block_source} or as q=..., not both", q)
-        changes["q_nominal"], changes["nominal_given"] = _nominal(model, q)
+        nominal, changes["nominal_given"] = _nominal(model, q)
+        changes["q_nominal"] = coupled(model, contents.couplings, nominal)  # followers set
     if not changes:
         return description
     return MechanismDescription(**{**description.arguments(), **changes})
+
+
+def _unmimicked_q(given: pin.Model, model: pin.Model, q: Nominal) -> Nominal:
+    """``q`` of the model as given (mimic joints without a value of their own) as one of its
+    tree (:func:`.mimic_model.without_mimic`); any other ``q`` as it is (checked later)."""
+    try:
+        array = np.asarray(q, dtype=float)
+    except (TypeError, ValueError):
+        return q
+    if array.shape != (given.nq,) or given.nq == model.nq:
+        return q
+    return configuration_of(given, model, array)
 
 
 def _not_twice(block: Any, tags: str | tuple[str, ...], argument: str, block_source: str) -> None:
