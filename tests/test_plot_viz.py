@@ -107,6 +107,23 @@ def test_visual_meshes_at_the_magnified_pose(tmp_path):
     assert mechanism.model.njoints == 2
 
 
+def test_meshes_with_a_clearance_file_beside_the_urdf(tmp_path):
+    """The headline workflow, a vendor URDF and a clearance file beside it: the view shows the
+    URDF's visual geometry (it showed the skeleton alone: the source 'urdf + toml' is no file)."""
+    pytest.importorskip("meshcat")
+    urdf = tmp_path / "boxes.urdf"
+    block = BOXES[BOXES.index("  <clearance_pin>") : BOXES.index("</clearance_pin>") + 17]
+    urdf.write_text(BOXES.replace(block, ""))
+    clearances = tmp_path / "play.xml"
+    clearances.write_text(block.strip())
+    mechanism = clearance_pin.load(urdf, clearances=clearances)
+    assert " + " in mechanism.source
+    with show_equilibrium(mechanism.solve(), show_skeleton=False) as view:
+        assert view.meshes
+        messages = _received(view.url)
+    assert sum("/visuals/" in m["path"] for m in messages if m["type"] == "set_object") == 2
+
+
 def test_magnified_motion_is_the_identity_at_m_1_and_affine():
     nominal = pin.SE3(pin.utils.rpyToMatrix(0.1, 0.2, 0.3), np.array([0.1, 0.2, 0.3]))
     motion = pin.exp6(np.array([1e-5, -2e-5, 3e-5, 1e-4, 2e-4, -1e-4]))

@@ -79,4 +79,16 @@ def combined_source(model_source: str, block_source: str | None) -> str:
     return f"{model_source} + {block_source}"
 
 
-__all__ = ["CollisionSource", "MechanismDescription", "combined_source", "describe"]
+def model_source(source: str) -> str:
+    """The model file of a mechanism's ``source`` (:func:`combined_source`'s first part: without
+    its clearance file)."""
+    return source.split(" + ", 1)[0]
+
+
+__all__ = [
+    "CollisionSource",
+    "MechanismDescription",
+    "combined_source",
+    "describe",
+    "model_source",
+]

@@ -33,6 +33,7 @@ import pinocchio as pin
 
 from ..equilibrium.result import Equilibrium
 from ..errors import ArgumentError, ClearancePinError, ClearancePinWarning
+from ..model.description import model_source
 from .skeleton import FloatArray, Skeleton, magnify, play_outlines, skeleton
 
 if TYPE_CHECKING:
@@ -146,13 +147,16 @@ def show_equilibrium(
 
 
 def _visuals(mechanism: Mechanism, package_dirs: Sequence[str | Path]) -> Any:
-    """The URDF's visual geometry, or None (no URDF file, no visual element, a mesh missing:
-    warned, and the skeleton is shown instead)."""
-    source = Path(str(mechanism.source))
+    """The model file's visual geometry (a URDF's ``<visual>`` elements, an MJCF file's geoms),
+    or None (no model file, no visual element, a mesh missing: warned, and the skeleton is shown
+    instead). The model file is the mechanism's source without its clearance file beside it."""
+    source = Path(model_source(str(mechanism.source)))
     if not source.is_file():
         return None
     dirs = [str(d) for d in package_dirs] + [str(source.parent)]
     try:
+        if source.suffix.lower() == ".xml":  # MJCF
+            return pin.buildGeomFromMJCF(mechanism.model, str(source), pin.GeometryType.VISUAL)
         return pin.buildGeomFromUrdf(
             mechanism.model, str(source), pin.GeometryType.VISUAL, package_dirs=dirs
         )
