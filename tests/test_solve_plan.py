@@ -153,3 +153,11 @@ def test_the_resolver_takes_every_option_of_solve(monkeypatch):
     assert "rocker_B" in answer.outputs
     for joint, torsor in reference.torsors.items():
         assert np.allclose(answer.torsors[joint], torsor, rtol=0, atol=1e-14)
+
+
+def test_the_exact_model_reports_its_newton_steps():
+    """The exact Newton from the linear answer counts its steps (it reported 0, hard-coded): a
+    second-order correction takes a few, and fewer than its limit of 12."""
+    answer = cp.load(MODELS / "four_bar.urdf").solve(exact=True)
+    assert answer.method is Method.EXACT_NEWTON
+    assert 1 <= answer.iterations <= 12

@@ -347,11 +347,16 @@ def solve_exact_model(
     at_upper, at_lower, start = _linear_start(linear, exact.shapes, sigma, levers)
     lam0 = np.zeros(exact.lower.size)
     lam0[: start.size] = start
-    polished = None if from_nominal else polish_exact(exact, z0, lam0, params, at_upper, at_lower)
+    steps: list[int] = []
+    polished = (
+        None
+        if from_nominal
+        else polish_exact(exact, z0, lam0, params, at_upper, at_lower, steps=steps)
+    )
     method = Method.EXACT_NEWTON
     if polished is not None:
         z, lam, parts = polished
-        stats = {"return_status": "Newton from the linear solution", "iter_count": 0}
+        stats = {"return_status": "Newton from the linear solution", "iter_count": steps[0]}
     else:
         method = Method.EXACT_IPOPT
         result, stats = ipopt.run(exact.solver, x0=z0, p=params, lbg=exact.lower, ubg=exact.upper)
@@ -477,8 +482,10 @@ def polish_exact(
     at_lower=None,
     iterations: int = 12,
     released=None,
+    steps: list[int] | None = None,
 ):
-    r"""Active-set Newton on the exact KKT system from a nearby point; None unless verified.
+    r"""Active-set Newton on the exact KKT system from a nearby point; None unless verified
+    (``steps``: the Newton steps taken are appended to it).
 
     Active: the equalities, and the contact constraints ``at_upper`` / ``at_lower`` (default:
     those within 1e-6 of their bound or carrying a multiplier, from IPOPT's answer). The gauge
@@ -512,6 +519,7 @@ def polish_exact(
     n = z.size
     previous = np.inf
     best: tuple[float, tuple[np.ndarray, np.ndarray, ExactParts] | None] = (np.inf, None)
+    taken = 0
     for _ in range(iterations):
         parts = exact.evaluate(z, params, lam)
         j_active = parts.jacobian[active]
@@ -533,6 +541,9 @@ def polish_exact(
         step = np.linalg.lstsq(kkt, -residual, rcond=None)[0]
         z += step[:n]
         lam[active] += step[n:]
+        taken += 1
+    if steps is not None:
+        steps.append(taken)
     if best[0] > ACCEPT_KKT or best[1] is None:
         return None
     z, lam, parts = best[1]
