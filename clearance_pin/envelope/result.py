@@ -231,13 +231,18 @@ class Envelope:
                     f"{kind}: UNBOUNDED along {free_count} free direction(s) (a motion no play "
                     "or drive limits moves the output: drive or lock the joint that allows it)"
                 )
-            lines.append(
-                f"{kind}{' (free directions removed)' if free_count else ''}: span "
-                f"{envelope.dimension}-D, largest {extreme.lower * scale:.6f} "
-                f"<= max <= {extreme.upper * scale:.6f} {label} (gap {extreme.gap:.1e}, "
-                f"{extreme.method}, {extreme.directions} directions"
-                f"{'' if extreme.certified else ', NOT certified'})"
-            )
+            removed = " (free directions removed)" if free_count else ""
+            if extreme.certified:
+                largest = (
+                    f"largest {extreme.upper * scale:.6f} {label}: a settled state reaches it, "
+                    f"and none goes further (proven to {extreme.gap:.0e} of it)"
+                )
+            else:
+                largest = (
+                    f"largest between {extreme.lower * scale:.6f} and {extreme.upper * scale:.6f} "
+                    f"{label}: not narrowed to the tolerance asked for (raise max_directions)"
+                )
+            lines.append(f"{kind}{removed}: {largest}; moves in {envelope.dimension}-D")
             lines.append(f"  reached with contacts: {', '.join(extreme.contacts) or '-'}")
             deviation = extreme.deviation
             size = float(deviation @ deviation)
