@@ -42,7 +42,8 @@ def plot_accuracy(amap: AccuracyMap, mechanism: Mechanism, path: str | Path | No
     _contributors(sources, amap)
     largest, pose, payload = amap.largest()
     figure.suptitle(
-        f"{mechanism.name}: where {amap.output} settles in the joint play, "
+        f"{mechanism.name}: where {amap.output} settles in the joint play"
+        f"{' and springs' if any('compliance' in source for source in amap.contributions) else ''}, "
         f"{amap.configurations.shape[0]} poses x {len(amap.payloads)} payloads; largest "
         f"{largest * UM:.1f} um (pose {pose}, {amap.payloads[payload]})"
     )

@@ -97,7 +97,8 @@ def plot_equilibrium(
         _legends(axes[-1], axes[:1], bones, labels)
     largest = bones.largest_displacement()
     first = title or (
-        f"{bones.name}: settled pose in the joint clearances "
+        f"{bones.name}: settled pose in the joint clearances"
+        f"{' and springs' if equilibrium.deflections else ''} "
         f"({FORMULATIONS.get(bones.formulation, bones.formulation)})"
     )
     notes = [f"displacements and play drawn x{style.number(m)}"]
