@@ -462,3 +462,18 @@ def test_ur5_soft_drives_exact_model_against_pinocchio_fixed_point():
     pin.framesForwardKinematics(model, data, placed(np.zeros(6)))
     moved = linear.frame_displacement("tool0").linear
     assert np.linalg.norm(data.oMf[frame].translation + moved - tool) > 1e-4
+
+
+def test_the_coal_check_reads_the_contacts_on_the_play_side_of_the_springs():
+    """The journal sits on the play's side of its springs: coal measures it at the child frame
+    less the spring's deflection, so an exact answer with a tilting spring (1 mrad, 20 um at
+    the journal's ends) checks ok, its contacts on the bore (it read them 20 um inside)."""
+    mechanism = cantilever('tilt_stiffness="1e4" radial_stiffness="1e7"')
+    loads = [Torque("arm", [0.0, 0.0, 2.0]), PointForce("arm", [0, 10, -20], [ARM, 0, 0])]
+    answer = mechanism.solve(loads, gravity=False, exact=True)
+    assert abs(answer.deflection("drive")[4]) > 5e-4  # the spring tilts the arm
+    report = answer.check()
+    assert report.ok
+    for point in report.joints["drive"].points:
+        if point.point.startswith("end"):
+            assert abs(point.distance) < 1e-9

@@ -7,6 +7,7 @@ import time
 from typing import TYPE_CHECKING
 
 import numpy as np
+import pinocchio as pin
 
 from ..errors import ArgumentError, ClearancePinError
 from ..model.joints import LoopJoint, TreeJoint
@@ -58,7 +59,7 @@ def check_equilibrium(
     _validate(equilibrium, journal_radius, facets, mesh_faceting, gjk_tolerance)
     mechanism = solved_mechanism(equilibrium)
     probe = Probe(gjk_tolerance)
-    frames = clearance_frames(equilibrium)
+    frames = _play_frames(equilibrium, clearance_frames(equilibrium))
     by_joint: dict[str, list[Contact]] = {}
     for contact in equilibrium.contacts:
         by_joint.setdefault(contact.joint, []).append(contact)
@@ -167,6 +168,23 @@ def _validate(
         raise ArgumentError("journal_radius", "None or a length > 0 [m]", journal_radius)
     if not (0.0 < gjk_tolerance <= 1e-3):
         raise ArgumentError("gjk_tolerance", "a number in (0, 1e-3]", gjk_tolerance)
+
+
+def _play_frames(
+    equilibrium: Equilibrium, frames: dict[str, ClearanceFrames]
+) -> dict[str, ClearanceFrames]:
+    """``frames`` with each joint's child frame where its play puts it: a joint with stiffness
+    moves by its play then its spring (docs/method.md section 2.2.2), and its contact surfaces
+    (the journal, the ball, the block) sit on the play's side of the spring, so the check reads
+    them at the child frame less the spring's deflection."""
+    deflections = equilibrium.deflections or {}
+    if not deflections:
+        return frames
+    out = dict(frames)
+    for name, deflection in deflections.items():
+        unsprung = pin.exp6(pin.Motion(-np.asarray(deflection, dtype=float)))
+        out[name] = dataclasses.replace(frames[name], child=frames[name].child * unsprung)
+    return out
 
 
 __all__ = ["check_equilibrium", "GJK_TOLERANCE", "FACETS"]
