@@ -171,9 +171,8 @@ def stacked_reactions(answers: StackedAnswers) -> StackedReactions:
         if len(matrix) == 1:  # one configuration: one factorisation, every case a right side
             answer = np.linalg.lstsq(scaled[0], -known[chosen].T, rcond=None)[0]
             solution[chosen] = answer.T / sizes[0]
-        else:
-            for i in chosen.tolist():
-                solution[i] = np.linalg.lstsq(scaled[i], -known[i], rcond=None)[0] / sizes[i]
+        elif chosen.size:  # one least squares per configuration, in one batched SVD
+            solution[chosen] = _least_squares(scaled[chosen], -known[chosen]) / sizes[chosen]
     else:
         solution = np.zeros((count, 0))
     parts = {part: np.zeros((count, len(names), 6)) for part in PARTS}
@@ -185,6 +184,18 @@ def stacked_reactions(answers: StackedAnswers) -> StackedReactions:
     reactions = StackedReactions(names, parts, frame_rotations, frame_origins)
     answers.__dict__["_reactions"] = reactions
     return reactions
+
+
+def _least_squares(matrices: np.ndarray, rights: np.ndarray) -> np.ndarray:
+    """The minimum-norm least-squares solutions (N, n) of N systems ``matrices`` (N, m, n) x =
+    ``rights`` (N, m), by one batched SVD with numpy.linalg.lstsq's rank rule (singular values
+    above eps * max(m, n) of the largest count)."""
+    u, singular, vt = np.linalg.svd(matrices, full_matrices=False)
+    floor = np.finfo(float).eps * max(matrices.shape[1:]) * singular[:, :1]
+    inverse = np.where(singular > floor, 1.0 / np.where(singular > 0.0, singular, 1.0), 0.0)
+    projected = np.einsum("nmk,nm->nk", u, rights) * inverse
+    solutions: np.ndarray = np.einsum("nkj,nk->nj", vt, projected)
+    return solutions
 
 
 def _se3(answers: StackedAnswers) -> Any:
