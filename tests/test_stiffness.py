@@ -477,3 +477,21 @@ def test_the_coal_check_reads_the_contacts_on_the_play_side_of_the_springs():
     for point in report.joints["drive"].points:
         if point.point.startswith("end"):
             assert abs(point.distance) < 1e-9
+
+
+def test_a_tree_s_reactions_from_its_subtrees_equal_the_batch_s_least_squares():
+    """The accuracy map reads a tree's springs from the statics of each joint's subtree (the
+    loads beyond it, weights from Pinocchio's subtree centres of mass): the same reactions as
+    the batch's per-body least squares, to 1e-9 of the largest, with gravity and a payload."""
+    from clearance_pin.accuracy.accuracy_map import pose_terms, subtree_reactions
+
+    arm = cp.load(str(MODELS / "arm_6r.urdf"))
+    poses = arm.q_nominal + np.random.default_rng(1).uniform(-0.5, 0.5, (20, arm.model.nq))
+    link, point = arm.link_point("tool")
+    loads = [PointForce(link, [3.0, -2.0, -40.0], point), Torque(link, [0.5, 0.0, 0.2])]
+    batch = arm.solve_many([loads] * len(poses), configurations=poses, gravity=True)
+    reactions = subtree_reactions(arm, pose_terms(arm, poses), loads, True)
+    for joint in arm.tree_joints:
+        expected = batch.reactions(joint.name)
+        scale = float(np.abs(expected).max())
+        assert reactions[joint.name] == pytest.approx(expected, abs=1e-9 * scale)
