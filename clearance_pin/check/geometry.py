@@ -42,7 +42,7 @@ from ..model.clearance import ContactPoint
 if TYPE_CHECKING:
     import coal
 
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 WINDOW = 2.0
 """Half-extent of a region's solid along its unbounded directions, in clearances."""
@@ -202,7 +202,8 @@ def shape_cache(mechanism: Mechanism) -> dict[Any, Any]:
 
     It lives in the mechanism's solver store, which is dropped on pickling and rebuilt on demand.
     """
-    return mechanism.cache.check_shapes
+    shapes: dict[Any, Any] = mechanism.cache.check_shapes
+    return shapes
 
 
 __all__ = [

@@ -27,7 +27,7 @@ from ..equilibrium.poses import ClearanceFrames, clearance_frames
 
 if TYPE_CHECKING:
     from ..equilibrium.result import Equilibrium
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 __all__ = ["ClearanceFrames", "clearance_frames", "joint_links", "solved_mechanism"]
 

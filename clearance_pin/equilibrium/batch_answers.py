@@ -31,7 +31,7 @@ from .linear_answer import ACTIVE_RELATIVE_GAP, split_force_rows
 from .small_displacement import tree_joint_basis
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
     from .prepared import PreparedGeometry
 
 

@@ -46,7 +46,7 @@ from .tree_point import TreePoint
 from .tree_trajectory import Objectives, objectives_of, tree_gradients, tree_maps
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
     from ..progress import Progress
     from .result import Equilibrium
 

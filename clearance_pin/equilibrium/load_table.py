@@ -33,7 +33,7 @@ from ..numerics import cross
 from .blocks import Array, Index, Mask
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 
 @dataclass(frozen=True)

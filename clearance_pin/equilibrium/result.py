@@ -35,7 +35,8 @@ from .report import report
 from .residuals import Residuals
 
 if TYPE_CHECKING:  # the mechanism module imports this one
-    from ..mechanism import Configuration, Mechanism
+    from ..model.mechanism_parts import ConfigurationParts as Configuration
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 Formulation = Literal["linear", "exact"]
 Status = Literal["optimal", "indeterminate"]

@@ -25,7 +25,7 @@ from ..errors import ClearancePinError
 from .small_displacement import tree_joint_basis
 
 if TYPE_CHECKING:
-    from ..mechanism import Configuration
+    from ..model.mechanism_parts import ConfigurationParts as Configuration
     from .prepared import PreparedGeometry
 
 

@@ -43,7 +43,7 @@ from .reduction import ROUND_OFF_WORK, UNBOUNDED_FRACTION, ReducedGeometry
 from .small_displacement import tree_joint_basis
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
     from .prepared import PreparedGeometry
 
 

@@ -42,7 +42,7 @@ from ..model.clearance import ALPHA, U
 from ..model.joints import LoopJoint
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 #: per loop joint of a residual: the joint, its constrained torsor components, its clearance
 #: frame in the world (:func:`closure_residual`)

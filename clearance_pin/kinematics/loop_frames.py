@@ -32,7 +32,7 @@ from ..model.clearance import ALPHA, BETA, GAMMA, ContactPoint, U
 from ..model.joints import LoopJoint, rotation_x_to
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 RIGID_TOLERANCE = 1e-9  # [m per m of length scale] a rigid direction may miss by round-off only
 
