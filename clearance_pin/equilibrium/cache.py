@@ -65,7 +65,9 @@ class LeastRecentlyUsed(OrderedDict[Key, Value], Generic[Key, Value]):
             while len(self) > self.limit:
                 self.popitem(last=False)
 
-    def __reduce__(self):  # pickled with its limit (OrderedDict's own would drop it)
+    def __reduce__(
+        self,
+    ) -> tuple[Any, ...]:  # pickled with its limit (OrderedDict's own would drop it)
         return (type(self), (self.limit,), None, None, iter(self.items()))
 
 
@@ -98,12 +100,14 @@ class SolveCache:
         # the closure's idle passive motions, with the (model, tree, loop joints) they count
         self.idle_motions: tuple[tuple[object, ...], int] | None = None
         self.geometry_terms: dict[int, tuple[Any, Any]] = {}
-        self.warm: dict[tuple, Any] = {}
-        self.projection_hints: dict[tuple, set[bytes]] = {}
-        self.exact_problems: LeastRecentlyUsed[tuple, Any] = LeastRecentlyUsed(EXACT_PROBLEMS_KEPT)
-        self.backends: LeastRecentlyUsed[tuple, Any] = LeastRecentlyUsed(BACKENDS_KEPT)
+        self.warm: dict[tuple[Any, ...], Any] = {}
+        self.projection_hints: dict[tuple[Any, ...], set[bytes]] = {}
+        self.exact_problems: LeastRecentlyUsed[tuple[Any, ...], Any] = LeastRecentlyUsed(
+            EXACT_PROBLEMS_KEPT
+        )
+        self.backends: LeastRecentlyUsed[tuple[Any, ...], Any] = LeastRecentlyUsed(BACKENDS_KEPT)
         self.check_shapes: dict[Any, Any] = {}
-        self.output_points: dict[tuple, tuple] = {}
+        self.output_points: dict[tuple[Any, ...], tuple[Any, ...]] = {}
 
     @property
     def data(self) -> pin.Data:
@@ -113,12 +117,12 @@ class SolveCache:
             data = self._threads.data = self._model.createData()
         return data
 
-    def geometry(self, key):
+    def geometry(self, key: Any) -> Any:
         """The prepared geometry kept for ``key`` (marked as recently used), or None."""
         with self.lock:
             return self.geometries.get(key)
 
-    def keep_geometry(self, key, prepared) -> None:
+    def keep_geometry(self, key: Any, prepared: Any) -> None:
         """Keep ``prepared`` for ``key``, dropping the least recently used beyond the limit (and
         the terms of the geometries no longer kept)."""
         with self.lock:

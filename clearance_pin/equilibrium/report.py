@@ -22,6 +22,7 @@ negative zero is printed as zero.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -61,12 +62,12 @@ def significant(value: float, floor: float = 0.0) -> str:
     return "0" if abs(value) <= floor else f"{value:.4g}"
 
 
-def vector(values, scale: float, digits: int = 3) -> str:
+def vector(values: Any, scale: float, digits: int = 3) -> str:
     """A 3-vector times ``scale``, as ``(x, y, z)`` without negative zeros."""
     return "(" + ", ".join(number(float(v) * scale, digits) for v in values) + ")"
 
 
-def outputs_table(equilibrium) -> list[str]:
+def outputs_table(equilibrium: Any) -> list[str]:
     """The world displacement of every output [um, urad], with exact - linear and the estimate."""
     measured = (equilibrium.difference or {}).get("outputs", {})
     bounds = (equilibrium.difference_bound or {}).get("outputs", {})
@@ -96,7 +97,7 @@ def outputs_table(equilibrium) -> list[str]:
     ]
 
 
-def contributors_table(equilibrium) -> list[str]:
+def contributors_table(equilibrium: Any) -> list[str]:
     """Per output frame of a mechanism without loops: each joint's share of its translation [um]
     (:meth:`~.result.Equilibrium.contributions`), largest first, with its part of the total."""
     if equilibrium.mechanism.loop_joints:  # a loop's passive joints follow: no own share
@@ -123,7 +124,7 @@ def contributors_table(equilibrium) -> list[str]:
     return lines
 
 
-def bearing_loads_table(equilibrium) -> list[str]:
+def bearing_loads_table(equilibrium: Any) -> list[str]:
     """Per joint: radial and axial force [N], transverse moment and drive torque [N m] (the drive
     force [N] of a driven prismatic joint; with backlash, what its stop holds), in the joint's
     clearance frame."""
@@ -178,7 +179,7 @@ def bearing_loads_table(equilibrium) -> list[str]:
     return lines
 
 
-def contacts_table(equilibrium) -> list[str]:
+def contacts_table(equilibrium: Any) -> list[str]:
     """Every contact point: gap [um], force [N] and its direction (clearance frame), where it acts
     in the world [mm] (nominal pose for the linear model, solved pose for the exact one)."""
     rows, stops = [], []
@@ -224,7 +225,7 @@ def contacts_table(equilibrium) -> list[str]:
     return lines
 
 
-def torsors_table(equilibrium) -> list[str]:
+def torsors_table(equilibrium: Any) -> list[str]:
     """Joint torsors in their clearance frames: u, v, w [um], alpha, beta, gamma [urad]."""
     rows = [
         [name, *(number(v * UM) for v in t[:3]), *(number(v * URAD) for v in t[3:])]
@@ -244,7 +245,7 @@ def torsors_table(equilibrium) -> list[str]:
     return lines
 
 
-def report(equilibrium) -> str:
+def report(equilibrium: Any) -> str:
     """The whole text report of ``equilibrium`` (module docstring)."""
     r = equilibrium.residuals
     lines = [

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import Any
 
 import numpy as np
 
@@ -47,17 +48,17 @@ class Resolver:
 
     def __init__(
         self,
-        mechanism,
-        loads=None,
-        q=None,
-        gravity=None,
+        mechanism: Any,
+        loads: Any = None,
+        q: Any = None,
+        gravity: Any = None,
         tol: float = 1e-12,
         backend: str = "auto",
         warm_start: bool = True,
-        outputs=None,
+        outputs: Any = None,
         exact: bool | str = False,
         accuracy: float = 1e-9,
-    ):
+    ) -> None:
         self._q = check_solve(
             mechanism, loads, exact, q, gravity, tol, backend, accuracy, warm_start, outputs
         )
@@ -93,7 +94,7 @@ class Resolver:
         self._compiled = warm_start and not exact and backend == "auto"
         self._bound: tuple[FastTerms, BoundLoads] | None = None  # once the kernel is engaged
 
-    def solve(self, values) -> Equilibrium:
+    def solve(self, values: Any) -> Equilibrium:
         """The equilibrium with the force and torque vectors ``values`` ((k, 3) or (3 k,) [N,
         N m], in the order of :attr:`loads`); raises like :meth:`Mechanism.solve`."""
         vector = _finite_vector(values, self.size)
@@ -156,7 +157,7 @@ class Resolver:
             self.mechanism, fast, bound, vector, lambda: self._loads_with(vector), self._points
         )
 
-    def _loads_with(self, vector: np.ndarray) -> tuple:
+    def _loads_with(self, vector: np.ndarray) -> tuple[Any, ...]:
         """:attr:`loads` with the force and torque vectors ``vector`` (3 k,)."""
         loads = list(self.loads)
         for k, index in enumerate(self._varying):
@@ -164,7 +165,7 @@ class Resolver:
         return tuple(loads)
 
 
-def _finite_vector(values, size: int) -> np.ndarray | None:
+def _finite_vector(values: Any, size: int) -> np.ndarray | None:
     """``values`` as a new float vector (size,) (a copy: the answer's loads are built from it
     when read), None unless they are real numbers (integers or floats: not booleans, strings or
     complex numbers) shaped (size / 3, 3) or (size,), all finite."""
@@ -185,6 +186,6 @@ def _finite_vector(values, size: int) -> np.ndarray | None:
 __all__ = ["Resolver"]
 
 
-def _farthest_point(load) -> float:
+def _farthest_point(load: Any) -> float:
     """The largest coordinate [m] of a PointForce's point (0 for a Torque)."""
     return float(np.abs(load.point).max()) if isinstance(load, PointForce) else 0.0
