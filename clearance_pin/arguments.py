@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .equilibrium.cone_solver import BACKENDS
+from .equilibrium.formulation import DEFAULTS
 from .errors import ArgumentError, LoadError, ModelError
 from .model import plausibility
 from .model.loads import Gravity, PointForce, Torque
@@ -277,13 +278,14 @@ def check_solve_many(
 ) -> None:
     """The arguments of :meth:`Mechanism.solve_many`, before any case is solved (so that
     ``errors="return"`` does not turn a mistyped option into one error per case)."""
+    chosen = {**DEFAULTS, **options}
     check_options(
-        options.get("exact", False),
-        options.get("gravity"),
-        options.get("tol", 1e-12),
-        options.get("backend", "auto"),
-        options.get("accuracy", 1e-9),
-        options.get("warm_start", True),
+        chosen["exact"],
+        chosen["gravity"],
+        chosen["tol"],
+        chosen["backend"],
+        chosen["accuracy"],
+        chosen["warm_start"],
     )
     check_outputs(options.get("outputs"))
     errors = options.get("errors", "raise")

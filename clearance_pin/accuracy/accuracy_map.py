@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from ..equilibrium.elastic_tree import spring_deflections
+from ..equilibrium.elastic_tree import play_twin, spring_deflections
 from ..errors import ArgumentError, NotFoundError
 from ..kinematics.joint_shares import joint_levers, moved_by
 from ..model.couplings import coupled
@@ -162,13 +162,13 @@ def accuracy_map(
     # batch (closed forms over the poses) and each spring's deflection from its reaction, the
     # statics of the subtree it carries (one kinematics per pose for every payload)
     superposed = bool(stiff_joints(mechanism.joints)) and not mechanism.loop_joints
-    solver = mechanism.without_stiffness() if superposed else mechanism
+    solver = play_twin(mechanism) if superposed else mechanism
     statics = pose_terms(mechanism, poses) if superposed else None
     for k, loads in enumerate(cases):
         if not mechanism.resolve_loads(loads, False if gravity is False else gravity):
             ok[:, k] = True  # no load at all: every pose stays at its nominal place
             continue
-        batch = solver.solve_many(  # type: ignore[no-untyped-call]
+        batch = solver.solve_many(
             [loads] * count, configurations=poses, gravity=gravity, errors="return"
         )
         ok[:, k] = batch.ok

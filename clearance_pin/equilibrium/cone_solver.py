@@ -36,12 +36,11 @@ import numpy as np
 from ..errors import ArgumentError
 from . import ipopt
 from .elastic_newton import curvature_scaled, elastic_residuals, polish_elastic
-from .kkt import ACCEPT_KKT, ACTIVE_GAP, active_set_solve, residuals
+from .kkt import ACCEPT_KKT, ACTIVE_GAP, NEARLY_TOUCHING, active_set_solve, residuals
 from .method import Method, backend_method
 from .reduction import ReducedProblem
 
 BACKENDS = ("auto", "clarabel", "ipopt")
-NEARLY_TOUCHING = 1e-3
 WARM_MAX_SIZE = 48  # dense Newton steps cost O(size^3): larger problems go to the sparse backend
 KEPT_SOLVERS = 8  # Clarabel solvers kept per backend, one per geometry (configuration)
 

@@ -22,7 +22,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .kkt import StackedContacts, residuals
+from .kkt import ACTIVE_GAP, NEARLY_TOUCHING, StackedContacts, residuals
 from .reduction import ReducedProblem
 
 Vector = np.ndarray
@@ -30,8 +30,6 @@ Polished = tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]  # y, mul
 
 NEWTON_STEPS = 30
 SET_CHANGES = 8
-ACTIVE_GAP = 1e-6  # a contact this close to its boundary (phi) starts in the active set
-NEARLY_TOUCHING = 1e-3
 STALLED = 1e-12  # a residual this small that halves no more is round-off
 ROUND_OFF = 1e-15  # per unknown, of H's largest eigenvalue: below it an eigenvalue is zero
 

@@ -31,6 +31,15 @@ from .small_displacement import tree_joint_basis
 KKT = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
 
 
+def play_twin(mechanism: Any) -> Any:
+    """The mechanism's rigid twin (:meth:`~clearance_pin.mechanism.Mechanism.without_stiffness`),
+    built once and kept in its cache."""
+    cache = mechanism.cache
+    if cache.play_twin is None:
+        cache.play_twin = mechanism.without_stiffness()
+    return cache.play_twin
+
+
 def superposed(
     mechanism: Any, prepared: PreparedGeometry, loads: Any, play: Equilibrium, started: float
 ) -> Equilibrium:
@@ -91,4 +100,4 @@ def spring_deflections(joint: Any, reactions: np.ndarray) -> np.ndarray:
     return deflections
 
 
-__all__ = ["spring_deflections", "superposed"]
+__all__ = ["play_twin", "spring_deflections", "superposed"]

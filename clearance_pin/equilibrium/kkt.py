@@ -28,6 +28,7 @@ PROXIMAL = 1e-12
 SUBSETS_KEPT = 64  # active sets whose rows are kept per geometry
 SUBSET_SIZE_KEPT = 200_000  # numbers in one kept set of rows (larger problems re-slice)
 ACTIVE_GAP = 1e-6
+NEARLY_TOUCHING = 1e-3  # a second try of an active set: every contact this close joins it
 
 
 class StackedContacts:

@@ -329,9 +329,12 @@ def reduce_geometry(
     elastic = np.flatnonzero(maps.stiffness)
     if contacts or elastic.size:
         # an elastic unknown is seen by its own energy (a unit row), as a contact sees its play
-        contact_rows = np.vstack(
-            [c.rows / c.contact.bound * scale for c in contacts] + [np.eye(n)[elastic]]
-        )
+        rows = [c.rows / c.contact.bound * scale for c in contacts]
+        if elastic.size:
+            unit = np.zeros((elastic.size, n))
+            unit[np.arange(elastic.size), elastic] = 1.0
+            rows.append(unit)
+        contact_rows = np.vstack(rows)
         seen_rows = contact_rows if no_closure else contact_rows @ closure_basis
         split = _split_blocks(seen_rows)
         if split is None:  # one block over all unknowns (loops): one SVD

@@ -28,7 +28,7 @@ from ..numerics import norm
 from .block_verify import closed_form_answer
 from .blocks import block_structure
 from .cone_solver import backend_for, clarabel_available, solve_cone
-from .elastic_tree import superposed
+from .elastic_tree import play_twin, superposed
 from .fast_path import (
     BoundLoads,
     FastTerms,
@@ -215,10 +215,8 @@ def _springs_superposed(mechanism, prepared, loads, q, tol, backend, warm_start,
                         started) -> Equilibrium:  # fmt: skip
     """A tree with stiffness: its rigid twin's answer (its own plan: closed forms, kernel, cone
     solvers) plus each spring's deflection (:mod:`.elastic_tree`)."""
-    cache = mechanism.cache
-    if cache.play_twin is None:
-        cache.play_twin = mechanism.without_stiffness()
-    play = solve_linear(cache.play_twin, loads, q, tol, backend, warm_start, output_points)
+    twin = play_twin(mechanism)
+    play = solve_linear(twin, loads, q, tol, backend, warm_start, output_points)
     answer = superposed(mechanism, prepared, loads, play, started)
     if not answer.ok:
         raise SolverError(
