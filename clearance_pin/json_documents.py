@@ -139,11 +139,10 @@ def equilibrium_document(equilibrium: Any) -> dict[str, Any]:
     }
 
 
-def solve_document(
-    model: str, equilibrium: Any, check: Any = None, departure: Any = None
-) -> dict[str, Any]:
+def solve_document(model: str, equilibrium: Any, check: Any = None) -> dict[str, Any]:
     """The ``solve`` document (:data:`SOLVE_SCHEMA`): the equilibrium, the linear answer an
-    exact one started from, the coal check of the exact pose and the linear pose's departure."""
+    exact one started from, the coal check of the exact pose and the linear pose's departure
+    (``check.departure``)."""
     document: dict[str, Any] = {
         "schema": SOLVE_SCHEMA,
         "model": model,
@@ -153,8 +152,8 @@ def solve_document(
         document["linear"] = equilibrium_document(equilibrium.linear)
     if check is not None:
         document["check"] = check.to_dict()
-    if departure is not None:
-        document["linear_departure"] = departure.to_dict()
+    if check is not None and check.departure is not None:
+        document["linear_departure"] = check.departure.to_dict()
     return document
 
 

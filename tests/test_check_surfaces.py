@@ -58,7 +58,7 @@ def test_journal_radius_and_facets_are_options():
 def test_linear_pose_overlaps_the_bore_on_6_1_6_1b():
     """The small-displacement pose of 6.1.6.1b pushes the journal into the bore: the surface
     reading is negative beyond its (solver + coal) tolerance, a penetration."""
-    report = _solved("6.1.6.1b").linear.check(bores=True)
+    report = _solved("6.1.6.1b").linear.check(pose="as_solved", bores=True)
     surface = report.joints["I2"].surfaces[0]
     assert surface.verdict == "penetration"
     assert "deepest facet penetration" in surface.message()

@@ -28,8 +28,9 @@ tangent facets and the journal's rim can only make the reading larger than the m
 reading is accepted in :math:`[g - \tau_{solver} - \tau_{coal},\ g + \tau]`. Elsewhere the
 tolerance is symmetric.
 
-There is **no** term for the small-displacement model's own error: a linear solution that sits off
-the real boundary by more than :math:`\tau` fails, and the report says by how much.
+There is **no** term for the small-displacement model's own error: a linear pose measured as solved
+(``pose="as_solved"``, or a report's ``departure``) that sits off the real boundary by more than
+:math:`\tau` fails, and the report says by how much.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import pinocchio as pin
@@ -20,15 +20,20 @@ from .surfaces import collision_parts, journal_in_bore
 
 if TYPE_CHECKING:
     from ..equilibrium.result import Contact, Equilibrium
+    from ..model.mechanism_parts import ConfigurationParts
 
 GJK_TOLERANCE = 1e-12
 FACETS = 512
 _IDENTITY = np.eye(3)
 
 
+POSES = ("real", "as_solved")
+
+
 def check_equilibrium(
     equilibrium: Equilibrium,
     *,
+    pose: str = "real",
     bores: bool = False,
     journal_radius: float | None = None,
     facets: int = FACETS,
@@ -38,8 +43,17 @@ def check_equilibrium(
     """Measure a solved pose with coal: every contact point against its clearance region, and
     optionally the parts' surfaces (see :mod:`clearance_pin.check`).
 
+    The real clearance boundaries are met exactly by the exact model only: a small-displacement
+    answer's own pose departs from them at second order (the model's error, 1.8 um on the paper's
+    case 6.1.6.1b), which is not a wrong answer. So by default (``pose="real"``) a linear answer
+    is judged on its exact pose (the exact model solved from it, same loads and configuration),
+    and the linear pose's own measure is attached as ``report.departure``, for information; an
+    exact answer is measured as it is. ``pose="as_solved"`` measures the given pose whatever its
+    formulation (the linear model's second-order departure then fails).
+
     Args:
         equilibrium: a solved :class:`~clearance_pin.equilibrium.result.Equilibrium`.
+        pose: ``"real"`` (default) or ``"as_solved"``, above.
         bores: also measure a journal cylinder in a generated faceted bore for every cylindrical
             and revolute joint (:mod:`.surfaces`).
         journal_radius: radius R of those journals [m] (default 10 radial clearances).
@@ -55,8 +69,41 @@ def check_equilibrium(
     Raises:
         ClearancePinError: the equilibrium carries no pose, an option is out of range, or coal fails.
     """
+    _validate(equilibrium, pose, journal_radius, facets, mesh_faceting, gjk_tolerance)
+    options = (bores, journal_radius, facets, mesh_faceting, gjk_tolerance)
+    if pose == "as_solved" or equilibrium.formulation != "linear":
+        return _measure(equilibrium, *options)
     started = time.perf_counter()
-    _validate(equilibrium, journal_radius, facets, mesh_faceting, gjk_tolerance)
+    exact = exact_pose(equilibrium)
+    solve_time = time.perf_counter() - started
+    report = _measure(exact, *options)
+    return dataclasses.replace(
+        report, departure=_measure(equilibrium, *options), exact_solve_time=solve_time
+    )
+
+
+def exact_pose(linear: Equilibrium) -> Equilibrium:
+    """The exact model's answer for the loads and configuration ``linear`` was solved for,
+    started from it (what ``Mechanism.solve(exact=True)`` returns for the same case)."""
+    from ..equilibrium.formulation import TOL, exact_from_linear
+
+    mechanism = solved_mechanism(linear)
+    configuration = cast("ConfigurationParts | None", linear.configuration)
+    q = None if configuration is None else np.asarray(configuration.q, dtype=float)
+    return exact_from_linear(mechanism, linear.loads or (), q, linear, TOL)
+
+
+def _measure(
+    equilibrium: Equilibrium,
+    bores: bool,
+    journal_radius: float | None,
+    facets: int,
+    mesh_faceting: float | None,
+    gjk_tolerance: float,
+) -> CheckReport:
+    """coal's measure of the pose ``equilibrium`` carries (the arguments of
+    :func:`check_equilibrium`)."""
+    started = time.perf_counter()
     mechanism = solved_mechanism(equilibrium)
     probe = Probe(gjk_tolerance)
     frames = _play_frames(equilibrium, clearance_frames(equilibrium))
@@ -149,6 +196,7 @@ def _point_reading(
 
 def _validate(
     equilibrium: Equilibrium,
+    pose: str,
     journal_radius: float | None,
     facets: int,
     mesh_faceting: float | None,
@@ -159,6 +207,8 @@ def _validate(
             "this equilibrium carries no solved pose (mechanism and body_placements): "
             "check the result of Mechanism.solve"
         )
+    if pose not in POSES:
+        raise ArgumentError("pose", f"one of {', '.join(map(repr, POSES))}", pose)
     if not isinstance(facets, int) or facets < 3:
         raise ArgumentError("facets", "an integer >= 3", facets)
     for name, value in (("journal_radius", journal_radius), ("mesh_faceting", mesh_faceting)):
@@ -187,4 +237,4 @@ def _play_frames(
     return out
 
 
-__all__ = ["check_equilibrium", "GJK_TOLERANCE", "FACETS"]
+__all__ = ["check_equilibrium", "exact_pose", "GJK_TOLERANCE", "FACETS", "POSES"]

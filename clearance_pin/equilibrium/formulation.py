@@ -22,10 +22,13 @@ from .result import Equilibrium
 from .second_order import estimate_difference
 from .solve import solve_linear
 
+TOL = 1e-12
+"""The optimiser's default tolerance (dimensionless, on clearance-scaled unknowns)."""
+
 DEFAULTS = {
     "exact": False,
     "gravity": None,
-    "tol": 1e-12,
+    "tol": TOL,
     "backend": "auto",
     "accuracy": 1e-9,
     "warm_start": True,
@@ -84,7 +87,7 @@ def _formulated(
         if not exact:
             raise
         # near a toggle the linear model has no meaningful answer; the exact one does
-        result = _exact(mechanism, resolved, q, near.answer, tol, from_nominal=True)
+        result = exact_from_linear(mechanism, resolved, q, near.answer, tol, from_nominal=True)
         note = (
             "near a singular position of the loop closure the small-displacement model "
             "has no verified answer (.linear is its unverified one): the exact model was "
@@ -107,7 +110,7 @@ def _formulated(
                     f"exact model at the outputs {error:.2e} m <= accuracy {accuracy:.0e} m"
                 ),
             )
-        result = _exact(mechanism, resolved, q, linear, tol)
+        result = exact_from_linear(mechanism, resolved, q, linear, tol)
         why = (
             f"estimated difference from the exact model at the outputs {error:.2e} m > "
             f"accuracy {accuracy:.0e} m"
@@ -118,18 +121,20 @@ def _formulated(
         return replace(result, difference_bound=linear.difference_bound, note=note)
     if not exact:
         return linear
-    return _exact(mechanism, resolved, q, linear, tol)
+    return exact_from_linear(mechanism, resolved, q, linear, tol)
 
 
-def _exact(
+def exact_from_linear(
     mechanism: Any, loads: Any, q: np.ndarray | None, linear: Equilibrium, tol: float,
     from_nominal: bool = False,
 ) -> Equilibrium:  # fmt: skip
-    """The exact model's solve; imported on first use (CasADi loads then, not at import)."""
+    """The exact model's answer for the resolved ``loads`` at ``q``, started from the linear
+    answer ``linear`` (``from_nominal``: from the nominal position); imported on first use
+    (CasADi loads then, not at import)."""
     from .exact import solve_exact_model
 
     answer: Equilibrium = solve_exact_model(mechanism, loads, q, linear, tol, from_nominal)
     return answer
 
 
-__all__ = ["DEFAULTS", "solve_case", "solve_with_options"]
+__all__ = ["DEFAULTS", "TOL", "exact_from_linear", "solve_case", "solve_with_options"]
