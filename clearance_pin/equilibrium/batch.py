@@ -29,7 +29,7 @@ from .batch_reactions import PARTS, stacked_reactions
 from .cone_solver import acceptance
 from .fast_path import WARM_ROUNDS, fast_terms
 from .formulation import solve_with_options
-from .kkt import UNLOADED
+from .kkt import RESIDUAL_NAMES, UNLOADED
 from .linear_answer import assemble_linear
 from .method import Method
 from .outputs import resolve_outputs
@@ -41,7 +41,6 @@ from .solve import linear_plan
 
 BATCH_MINIMUM = 16
 BATCH_MAX_SIZE = 48  # reduced unknowns beyond which cases are solved one by one (warm-started)
-RESIDUAL_NAMES = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
 REGROUP_ROUNDS = 4  # batched Newton rounds, each seeded by a single solve of a contact set
 PROBE = 16  # cases that show whether a batched round pays before the rest of it runs
 # a compiled batch runs on threads in chunks of at least THREAD_CASES cases (a thread's start

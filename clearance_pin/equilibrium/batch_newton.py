@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kkt import ACCEPT_KKT, POLISH_TOL, PROXIMAL, StackedContacts
+from .kkt import ACCEPT_KKT, POLISH_TOL, PROXIMAL, StackedContacts, kkt_passed, kkt_table
 
 
 def batched_newton(
@@ -105,14 +105,6 @@ def stacked_evaluation(stack: StackedContacts, y: np.ndarray, signs: np.ndarray)
 
 def _verify(stack: StackedContacts, objectives, y, multipliers, signs, accept):
     phi, gradients = stacked_evaluation(stack, y, signs)
-    stationarity = np.abs(objectives + np.einsum("nmr,nm->nr", gradients, multipliers)).max(axis=1)
-    feasibility = np.maximum(phi, 0.0).max(axis=1)
-    complementarity = np.abs(multipliers * phi).max(axis=1)
-    dual = np.maximum(-multipliers, 0.0).max(axis=1)
-    table = np.stack([stationarity, feasibility, complementarity, dual], axis=1)
-    verified = (
-        (table.max(axis=1) <= accept)
-        & (multipliers.min(axis=1) >= -1e-12)
-        & (phi.max(axis=1) <= 1e-13)
-    )
-    return verified, table
+    stationarity = objectives + np.einsum("nmr,nm->nr", gradients, multipliers)
+    table = kkt_table(stationarity, phi, multipliers)
+    return kkt_passed(table, phi, multipliers, accept), table

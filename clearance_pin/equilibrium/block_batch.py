@@ -24,7 +24,7 @@ from ..errors import ClearancePinError
 from .batch import Cases, EquilibriumBatch, name_case
 from .batch_answers import StackedAnswers
 from .batch_kinematics import body_placements
-from .block_verify import RESIDUAL_NAMES, SOLVER_STATUS, flat_notes, verify
+from .block_verify import SOLVER_STATUS, flat_notes, verify
 from .blocks import (
     Array,
     BlockStructure,
@@ -36,6 +36,7 @@ from .blocks import (
 )
 from .cache import LeastRecentlyUsed
 from .formulation import solve_with_options
+from .kkt import RESIDUAL_NAMES
 from .linear_answer import assemble_linear
 from .load_table import LoadTable, body_wrenches, load_table
 from .method import Method

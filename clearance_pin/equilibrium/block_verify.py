@@ -26,9 +26,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from . import kkt
 from .blocks import Array, BlockStructure, Mask, block_structure, closed_forms, reduced_unknowns
 from .cone_solver import acceptance
-from .kkt import UNLOADED, StackedContacts
+from .kkt import RESIDUAL_NAMES, UNLOADED, StackedContacts
 from .lazy import LazySequence
 from .linear_answer import assemble_linear
 from .load_table import body_terms, centred_wrenches
@@ -41,7 +42,6 @@ if TYPE_CHECKING:
     from .prepared import PreparedGeometry
     from .result import Equilibrium
 
-RESIDUAL_NAMES = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
 SOLVER_STATUS = "closed form"
 
 
@@ -91,21 +91,9 @@ def kkt_table(
     if columns is not None:
         neglected = (residual * columns).max(axis=1, initial=0.0)
         residual = residual * ~columns
-    table = np.stack(
-        [
-            residual.max(axis=1, initial=0.0),
-            np.maximum(phi, 0.0).max(axis=1, initial=0.0),
-            np.abs(multipliers * phi).max(axis=1, initial=0.0),
-            np.maximum(-multipliers, 0.0).max(axis=1, initial=0.0),
-        ],
-        axis=1,
-    )
-    passed = (
-        (table.max(axis=1) <= acceptance(prepared.geometry.conditioning))
-        & (multipliers.min(axis=1, initial=0.0) >= -1e-12)
-        & (phi.max(axis=1, initial=-1.0) <= 1e-13)
-        & (neglected <= UNLOADED)
-    )
+    table = kkt.kkt_table(residual, phi, multipliers)
+    accept = acceptance(prepared.geometry.conditioning)
+    passed = kkt.kkt_passed(table, phi, multipliers, accept) & (neglected <= UNLOADED)
     return passed, table, neglected
 
 
@@ -272,7 +260,6 @@ def closed_form_answer(
 
 
 __all__ = [
-    "RESIDUAL_NAMES",
     "SOLVER_STATUS",
     "Verification",
     "centred_problem",

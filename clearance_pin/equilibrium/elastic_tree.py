@@ -22,13 +22,12 @@ from typing import Any
 import numpy as np
 
 from ..model.stiffness import elastic
+from .kkt import RESIDUAL_NAMES
 from .linear_answer import answer_of_x
 from .method import Method
 from .prepared import PreparedGeometry
 from .result import Equilibrium
 from .small_displacement import tree_joint_basis
-
-KKT = ("stationarity", "feasibility", "complementarity", "dual_infeasibility")
 
 
 def play_twin(mechanism: Any) -> Any:
@@ -64,7 +63,7 @@ def superposed(
         carried[index] = float(np.linalg.norm(forces[index]))
     force_rows = forces.reshape(-1)[prepared.terms.scatter]
     gaps, _ = prepared.contact_state(x, np.zeros(len(contacts)), np.ones(len(contacts)), 0.0)
-    residuals = {name: play.residuals[name] for name in KKT if name in play.residuals}
+    residuals = {name: play.residuals[name] for name in RESIDUAL_NAMES if name in play.residuals}
     status, method, solver_status = play.status, play.method, play.solver_status
     if status == "indeterminate" and np.any(x[elastic]):
         # nothing moves in the play (none, or no load on it) but the springs deflect: answered
