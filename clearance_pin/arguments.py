@@ -215,6 +215,40 @@ def check_load_magnitudes(loads: Iterable[object], argument: str = "loads") -> N
         )
 
 
+def _check_case_magnitudes(cases: Sequence[object]) -> None:
+    """:func:`check_load_magnitudes` of every load case that is a list or tuple, in bulk: the
+    largest |component| of all forces, torques, points and gravities, and of each case, found by
+    a few array reductions (about 0.2 us per load against 2 us one by one); only when one of them
+    is beyond the limits is each case checked by itself, to name the load."""
+    listed = [(index, case) for index, case in enumerate(cases) if type(case) in (list, tuple)]
+    vectors: list[np.ndarray] = []
+    owners: list[int] = []  # per vector, its case; -1 for a point (not a load's magnitude)
+    for index, case in listed:
+        for load in case:  # type: ignore[attr-defined]  # a list or tuple
+            if isinstance(load, PointForce):
+                vectors += (load.force, load.point)
+                owners += (index, -1)
+            elif isinstance(load, Torque):
+                vectors.append(load.torque)
+                owners.append(index)
+            elif isinstance(load, Gravity):
+                vectors.append(load.acceleration)
+                owners.append(index)
+    if not vectors:
+        return
+    largest = np.abs(np.array(vectors)).max(axis=1)
+    owner = np.array(owners)
+    per_case = np.zeros(len(cases))
+    np.maximum.at(per_case, owner[owner >= 0], largest[owner >= 0])
+    smallest_case = per_case[per_case > 0.0].min(initial=np.inf)
+    # a point beyond 1 m multiplies its force's magnitude: the product of the largest point and
+    # the largest force bounds every moment
+    if largest.max() ** 2 <= LARGEST_MAGNITUDE and smallest_case >= SMALLEST_LOAD:
+        return
+    for index, case in listed:
+        check_load_magnitudes(case, f"loads[{index}]")  # type: ignore[arg-type]
+
+
 def _largest(vector: np.ndarray) -> float:
     """The largest absolute component of a 3-vector (a Python max: about 0.5 us, a third of
     NumPy's on 3 values; this runs on every solve)."""
@@ -311,9 +345,7 @@ def check_solve_many(
                         case,
                     )
                 check_loads(case, f"loads[{index}]")
-            for index, case in enumerate(loads):
-                if type(case) in (list, tuple):
-                    check_load_magnitudes(case, f"loads[{index}]")
+            _check_case_magnitudes(loads)
     if loads is None:
         check_load_magnitudes((*mechanism.loads, mechanism.gravity), "the model's loads")
     if configurations is not None:

@@ -10,6 +10,7 @@ solve (so the mechanism still solves afterwards).
 from __future__ import annotations
 
 import pickle
+import re
 
 import numpy as np
 import pytest
@@ -122,6 +123,24 @@ def test_solve_many_argument_errors(pendulum):
     assert caught.value.argument == "errors"
     batch = pendulum.solve_many([[force], [force]], errors="return")
     assert all(result.ok for result in batch)
+
+
+@pytest.mark.parametrize(
+    ("force", "point", "words"),
+    [
+        ([1e-200, 0.0, 0.0], [0.1, 0.0, 0.0], "below the smallest taken"),  # a far point hides none
+        ([1e80, 0.0, 0.0], [1e80, 0.0, 0.0], "the moment |p x F|"),
+        ([1e151, 0.0, 0.0], [0.0, 0.0, 0.0], "beyond the largest taken"),
+    ],
+)
+def test_solve_many_names_the_case_beyond_double_precision(pendulum, force, point, words):
+    """The magnitudes of many cases are checked in bulk; a case beyond the limits is still named
+    (its index and load), as one solve names it, and the well-formed cases pass."""
+    fine = cp.PointForce("tip", [0.0, -10.0, 0.0])
+    with pytest.raises(cp.LoadError, match=re.escape(words)) as caught:
+        pendulum.solve_many([[fine], [fine], [cp.PointForce("tip", force, point)]])
+    assert "in loads[2]" in str(caught.value)
+    assert len(pendulum.solve_many([[fine]] * 3, errors="raise")) == 3
 
 
 def test_argument_error_pickles():
