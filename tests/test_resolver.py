@@ -173,3 +173,72 @@ def test_resolver_refuses_forces_given_as_columns():
     with pytest.raises(ArgumentError, match="values"):
         resolver.solve(np.ones((3, 2)))
     resolver.solve(np.array([[0.0, 1.0, 1.0], [0.0, 0.0, 0.0]]))  # (k, 3): taken
+
+
+@pytest.mark.parametrize("model", ["younes_two_cylinders", "four_bar", "arm_6r"])
+def test_resolver_solve_many_answers_as_single_solves(model):
+    """resolver.solve_many(values (N, k, 3)) gives each case the answer of Mechanism.solve of
+    its load objects (solved on a mechanism of its own), whichever batch engine runs (the
+    compiled kernel on the paper shaft, the NumPy batch on the four-bar, the closed forms on
+    the arm), and its whole-batch readers read them."""
+    mechanism = clearance_pin.load(str(ROOT / "models" / f"{model}.urdf"))
+    reference = clearance_pin.load(str(ROOT / "models" / f"{model}.urdf"))
+    base = [load for load in mechanism.loads if isinstance(load, (PointForce, Torque))]
+    rng = np.random.default_rng(5)
+    start = _vectors(base)
+    values = start * rng.uniform(0.6, 1.4, (60, 1))
+    batch = mechanism.resolver(base).solve_many(values.reshape(60, -1, 3))
+    assert len(batch) == 60 and batch.ok.all()
+    joint = next(iter(reference.joints))
+    torsors = batch.torsors(joint)
+    for n in (0, 1, 31, 59):
+        expected = reference.solve(_with(base, values[n]))
+        play = max(c.clearance for c in expected.contacts)
+        assert np.abs(torsors[n] - expected.torsors[joint]).max() <= 1e-11 * max(play, 1.0)
+        assert np.abs(batch[n].torsors[joint] - expected.torsors[joint]).max() <= 1e-11 * play
+        assert np.array_equal(_vectors(batch[n].loads), values[n])
+        np.testing.assert_allclose(
+            batch.reactions(joint)[n], expected.reaction(joint), rtol=0.0, atol=1e-9
+        )
+
+
+def test_resolver_solve_many_grid_of_payloads_and_poses():
+    """configurations (Q, nq) with N payloads: Q N cases, case i N + n pose i under payload n,
+    each the single solve of that pose and payload (by Mechanism.solve, gravity on)."""
+    path = str(ROOT / "models" / "arm_6r.urdf")
+    mechanism, reference = clearance_pin.load(path), clearance_pin.load(path)
+    tool = next(load for load in mechanism.loads if isinstance(load, PointForce))
+    payloads = np.array([[0.0, 0.0, -9.81 * kg] for kg in (0.5, 2.0, 4.0)])
+    rng = np.random.default_rng(1)
+    poses = [mechanism.q_nominal + 0.3 * rng.standard_normal(mechanism.model.nq) for _ in range(4)]
+    resolver = mechanism.resolver([tool], gravity=True)
+    grid = resolver.solve_many(payloads, configurations=poses)
+    assert len(grid) == 12 and grid.ok.all()
+    shifts = grid.frame_displacements("tool")[0]
+    for i, n in ((0, 0), (1, 2), (3, 1)):
+        load = PointForce(tool.link, payloads[n], tool.point)
+        expected = reference.solve([load], q=poses[i], gravity=True)
+        moved = expected.frame_displacement("tool")[0]
+        assert np.abs(shifts[i * 3 + n] - moved).max() <= 1e-12 + 1e-9 * np.abs(moved).max()
+
+
+def test_resolver_solve_many_refuses_bad_arrays():
+    """Wrong shapes, non-finite entries and magnitudes beyond double precision name the
+    argument (and the case)."""
+    mechanism = clearance_pin.load(str(ROOT / "models" / "four_bar.urdf"))
+    base = [load for load in mechanism.loads if isinstance(load, (PointForce, Torque))]
+    resolver = mechanism.resolver(base)
+    good = np.tile(_vectors(base), (3, 1))
+    for bad in (good[0], good[:, :2], good.astype(str), np.zeros((0, resolver.size))):
+        with pytest.raises(ArgumentError, match="values"):
+            resolver.solve_many(bad)
+    infinite = good.copy()
+    infinite[1, 0] = np.inf
+    with pytest.raises(ArgumentError, match="values"):
+        resolver.solve_many(infinite)
+    huge = good.copy()
+    huge[2] = 1e200
+    with pytest.raises(clearance_pin.LoadError, match=r"values\[2\]"):
+        resolver.solve_many(huge)
+    with pytest.raises(ArgumentError, match=r"configurations\[1\]"):
+        resolver.solve_many(good, configurations=[mechanism.q_nominal, ["a"] * mechanism.model.nq])

@@ -355,7 +355,7 @@ def solve_many(
     loads=None,
     configurations=None,
     *,
-    exact: bool = False,
+    exact: bool | str = False,
     gravity=None,
     tol: float = 1e-12,
     backend: str = "auto",

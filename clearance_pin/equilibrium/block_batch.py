@@ -38,7 +38,7 @@ from .cache import LeastRecentlyUsed
 from .formulation import solve_with_options
 from .kkt import RESIDUAL_NAMES
 from .linear_answer import assemble_linear
-from .load_table import LoadTable, body_wrenches, load_table
+from .load_table import LoadTable, LoadVectors, body_wrenches, load_table
 from .method import Method
 from .outputs import resolve_outputs
 from .prepared import PreparedGeometry, prepared_geometry
@@ -227,9 +227,12 @@ def solve_configurations(
     if found is None:
         return None
     prepared, structure = found
-    configurations = [prepared.configuration.q if q is None else q for _, q in cases]
+    given = cases.configurations or [None] * len(cases)
+    configurations = [prepared.configuration.q if q is None else q for q in given]
     rotations, translations = body_placements(mechanism, configurations)
-    shared = all(loads is None for loads in cases.load_column())
+    shared = cases.loads is None or (
+        not isinstance(cases.loads, LoadVectors) and all(loads is None for loads in cases.loads)
+    )
     if shared:  # one load table, repeated (the loads are the same at every point)
         one = load_table(mechanism, [None], options["gravity"])
         table = _repeated(one, len(cases))
@@ -388,7 +391,8 @@ class Assembler:
         if nominal is None:  # unpickled
             nominal = self.nominal = prepared_geometry(self.mechanism)
         if self.along:
-            configurations = [nominal.configuration.q if q is None else q for _, q in self.cases]
+            given = self.cases.configurations or [None] * len(self.cases)
+            configurations = [nominal.configuration.q if q is None else q for q in given]
             rotations, translations = body_placements(self.mechanism, configurations)
         else:
             oMi = nominal.configuration.oMi

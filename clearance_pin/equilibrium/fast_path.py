@@ -38,6 +38,7 @@ from .frozen import FieldTemplate
 from .kkt import ACTIVE_GAP, POLISH_TOL, PROXIMAL, UNLOADED
 from .lazy import LazySequence
 from .linear_answer import linear_equilibrium
+from .load_table import LoadVectors
 from .method import Method, backend_method
 from .prepared import PreparedGeometry
 from .reduction import ROUND_OFF_WORK, UNBOUNDED_FRACTION, loaded_problem
@@ -407,6 +408,11 @@ class FastTerms:
         (another set of loaded points, or a case that is not a sequence of loads)."""
         if not cases:
             return None
+        if isinstance(cases, LoadVectors):  # the vectors given as an array: no object read
+            mapped = self.load_map((*cases[0], *appended))
+            if mapped is None or any(type(load) is not Gravity for load in appended):
+                return None
+            return np.ascontiguousarray(cases.vectors, dtype=float), mapped[1], mapped[2]
         try:
             first = (*cases[0], *appended)
         except TypeError:

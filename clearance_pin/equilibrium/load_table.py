@@ -22,13 +22,13 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import compress
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, overload
 
 import numpy as np
 
-from ..model.loads import Gravity, PointForce, Torque
+from ..model.loads import Gravity, PointForce, Torque, with_vector
 from ..numerics import cross
 from .blocks import Array, Index, Mask
 
@@ -79,11 +79,49 @@ def _gravity_of(mechanism: Mechanism, gravity: object) -> Gravity | None:
 KIND = {PointForce: 0, Torque: 1, Gravity: 2}  # any other object: 3, not a load
 
 
+class LoadVectors(Sequence[tuple[object, ...]]):
+    """N load cases that share one set of loads (kinds, links, points) and differ by the force
+    and torque vectors: ``template`` (resolved loads, checked) and ``vectors`` (N, 3 k) [N, N m],
+    row n the vectors of case n's PointForce and Torque loads in the template's order (3 numbers
+    each). A case reads as the tuple of its loads, built when read; the batch engines read the
+    vectors themselves (:func:`load_table`, :meth:`.fast_path.FastTerms.load_cases`), so that
+    1e5 cases from a planner's arrays build no load object."""
+
+    def __init__(self, template: Sequence[object], vectors: Array) -> None:
+        self.template = tuple(template)
+        self.varying = tuple(
+            k for k, load in enumerate(self.template) if type(load) in (PointForce, Torque)
+        )
+        self.vectors = vectors
+
+    def __len__(self) -> int:
+        return len(self.vectors)
+
+    @overload
+    def __getitem__(self, index: int) -> tuple[object, ...]: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> LoadVectors: ...
+
+    def __getitem__(self, index: int | slice) -> tuple[object, ...] | LoadVectors:
+        if isinstance(index, slice):
+            return LoadVectors(self.template, self.vectors[index])
+        row = self.vectors[index]  # an index out of range raises here
+        loads = list(self.template)
+        for k, position in enumerate(self.varying):
+            loads[position] = with_vector(loads[position], row[3 * k : 3 * k + 3])  # type: ignore[arg-type]
+        return tuple(loads)
+
+
 def load_table(
-    mechanism: Mechanism, cases: Sequence[Sequence[object] | None], gravity: object
+    mechanism: Mechanism,
+    cases: Sequence[Sequence[object] | None] | LoadVectors,
+    gravity: object,
 ) -> LoadTable:
     """The load terms of ``cases`` (None: the model's loads) with ``gravity`` (an option of
     :meth:`Mechanism.solve`)."""
+    if isinstance(cases, LoadVectors):
+        return _vector_table(mechanism, cases, gravity)
     model, links = mechanism.model, mechanism.link_frames
     frames = model.frames
     names = list(links)
@@ -149,6 +187,53 @@ def load_table(
         weighed=weighed,
         masses=masses,
         levers=levers,
+    )
+
+
+def _vector_table(mechanism: Mechanism, cases: LoadVectors, gravity: object) -> LoadTable:
+    """:func:`load_table` of cases given as vectors: the rows of each load of the template
+    (one case: 0 or 1 row, or a body's weight rows for a Gravity), repeated for every case,
+    the force or torque columns of a varying load replaced by its vectors."""
+    count = len(cases)
+    fixed = [load for k, load in enumerate(cases.template) if k not in cases.varying]
+    parts = [_repeated_rows(load_table(mechanism, [fixed], False), count)]
+    for k, position in enumerate(cases.varying):
+        one = load_table(mechanism, [[cases.template[position]]], False)
+        rows = _repeated_rows(one, count)
+        if one.body.size:  # a load on the ground has no row: it does no work
+            vectors = cases.vectors[:, 3 * k : 3 * k + 3]
+            is_force = type(cases.template[position]) is PointForce
+            rows = replace(
+                rows,
+                force=vectors if is_force else rows.force,
+                torque=rows.torque if is_force else vectors,
+            )
+        parts.append(rows)
+    shared = load_table(mechanism, [()], gravity)  # the gravity option and the bodies' masses
+    return replace(
+        shared,
+        count=count,
+        case=np.concatenate([part.case for part in parts]),
+        body=np.concatenate([part.body for part in parts]),
+        force=np.concatenate([part.force for part in parts]),
+        point=np.concatenate([part.point for part in parts]),
+        torque=np.concatenate([part.torque for part in parts]),
+        valid=np.ones(count, dtype=bool),
+    )
+
+
+def _repeated_rows(one: LoadTable, count: int) -> LoadTable:
+    """The rows of a one-case table ``one`` for ``count`` cases, case by case."""
+    size = one.body.size
+    return replace(
+        one,
+        count=count,
+        case=np.repeat(np.arange(count, dtype=np.intp), size),
+        body=np.tile(one.body, count),
+        force=np.tile(one.force, (count, 1)),
+        point=np.tile(one.point, (count, 1)),
+        torque=np.tile(one.torque, (count, 1)),
+        valid=np.ones(count, dtype=bool),
     )
 
 
@@ -292,6 +377,7 @@ def centred_wrenches(
 __all__ = [
     "BodyTerms",
     "LoadTable",
+    "LoadVectors",
     "body_terms",
     "body_wrenches",
     "centred_wrenches",

@@ -20,13 +20,20 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import LARGEST_MAGNITUDE, SMALLEST_LOAD, check_load_magnitudes, check_solve
+from ..arguments import (
+    LARGEST_MAGNITUDE,
+    SMALLEST_LOAD,
+    check_configuration,
+    check_load_magnitudes,
+    check_solve,
+)
 from ..errors import ArgumentError, ClearancePinError, SolverError
 from ..model.loads import PointForce, Torque, with_vector
 from .blocks import block_structure
 from .cone_solver import clarabel_available
 from .fast_path import BoundLoads, FastTerms, fast_terms, kernel_installed
 from .formulation import solve_case
+from .load_table import LoadVectors
 from .method import Method
 from .outputs import resolve_outputs
 from .plan import plan_linear
@@ -139,6 +146,88 @@ class Resolver:
                 f"numerical failure in {mechanism.name!r} ({type(exc).__name__}: {exc})",
                 "numerical error",
             ) from None
+
+    def solve_many(
+        self,
+        values: Any,
+        configurations: Any = None,
+        *,
+        errors: str = "raise",
+        progress: bool | None = None,
+    ) -> Any:
+        """Many re-solves in one call, from arrays: the force and torque vectors ``values``
+        (N, k, 3) or (N, 3 k) [N, N m] (row n: case n's vectors, as :meth:`solve` takes one),
+        no load object built; with ``configurations`` (Q, nq), every pose under every load case,
+        a payload x pose grid of Q N cases, case ``i * N + n`` pose i under load case n.
+
+        Returns the :class:`~.batch.EquilibriumBatch` of ``Mechanism.solve_many`` (its
+        whole-batch readers give arrays: ``frame_displacements``, ``reactions``,
+        ``contact_forces``, ``drive_torques``), the same answers as ``solve_many`` of the load
+        objects; ``errors`` and ``progress`` as there.
+        """
+        from .batch import solve_many
+
+        vectors = self._vectors(values)
+        poses = None
+        if configurations is not None:
+            poses = self._poses(configurations)
+            vectors = np.tile(vectors, (len(poses), 1))
+            poses = [q for q in poses for _ in range(len(vectors) // len(poses))]
+        tol, backend, warm_start = self._options
+        exact, accuracy, outputs = self._exact
+        return solve_many(
+            self.mechanism,
+            LoadVectors(self.loads, vectors),
+            poses,
+            exact=exact,
+            gravity=False,  # resolved: the loads carry it
+            tol=tol,
+            backend=backend,
+            accuracy=accuracy,
+            warm_start=warm_start,
+            outputs=outputs,
+            errors=errors,
+            progress=progress,
+        )
+
+    def _vectors(self, values: Any) -> np.ndarray:
+        """``values`` as a float array (N, 3 k), checked: finite real numbers, magnitudes
+        within double precision (:func:`~clearance_pin.arguments.check_load_magnitudes`, in
+        bulk; the first case beyond the limits named)."""
+        expected = (
+            f"finite real numbers shaped (N, {self.size // 3}, 3) or (N, {self.size}): per case "
+            "the loads' force and torque vectors [N, N m], in the order of resolver.loads"
+        )
+        try:
+            raw = np.asarray(values)
+        except (TypeError, ValueError):  # ragged lists
+            raise ArgumentError("values", expected, values) from None
+        shaped = raw.ndim in (2, 3) and raw.shape[1:] in ((self.size // 3, 3), (self.size,))
+        if raw.dtype.kind not in "fiu" or not shaped or len(raw) == 0:
+            raise ArgumentError("values", expected, values)
+        vectors = raw.astype(float).reshape(len(raw), self.size)
+        if not np.isfinite(vectors).all():
+            raise ArgumentError("values", expected, "values with an infinite or NaN entry")
+        largest = np.abs(vectors).max(axis=1)
+        beyond = (largest > self._largest_value) | ((largest > 0.0) & (largest < SMALLEST_LOAD))
+        for index in np.flatnonzero(beyond)[:1].tolist():
+            check_load_magnitudes(self._loads_with(vectors[index]), f"values[{index}]")
+        return vectors
+
+    def _poses(self, configurations: Any) -> list[np.ndarray]:
+        """``configurations`` as a list of checked configurations q (nq,)."""
+        if isinstance(configurations, (str, bytes)) or not hasattr(configurations, "__len__"):
+            raise ArgumentError(
+                "configurations", "a list of configurations q (nq,)", configurations
+            )
+        own = self.mechanism.q_nominal if self._q is None else self._q
+        poses = [
+            check_configuration(self.mechanism, q, f"configurations[{index}]", warn=False)
+            for index, q in enumerate(configurations)
+        ]
+        if not poses:
+            raise ArgumentError("configurations", "at least one configuration", configurations)
+        return [np.asarray(own if q is None else q, dtype=float) for q in poses]
 
     def _resolve_compiled(self, vector: np.ndarray) -> Equilibrium | None:
         """The compiled re-solve (:func:`.solve.resolve_linear`), None when the kernel is not
