@@ -658,7 +658,7 @@ def legend_anchor(bones: Skeleton) -> FloatArray:
     sees it."""
     right, up = _screen_axes()
     size = bones.size()
-    return np.asarray(centre(bones) - 0.65 * size * up - 0.45 * size * right, dtype=float)
+    return np.asarray(centre(bones) - 0.5 * size * up - 0.3 * size * right, dtype=float)
 
 
 def _draw_legend(
@@ -678,7 +678,7 @@ def _draw_legend(
         )
         viewer[f"{root}/bar"].set_transform(bar)
         sent.append(f"{root}/bar")
-    width = 0.8 * size  # the plane's side; the text runs across its middle
+    width = 0.5 * size  # the plane's side; the text runs across its middle
 
     def lower(self: Any, _: Any) -> dict[str, Any]:
         return {"uuid": self.uuid, "type": "PlaneGeometry", "width": width, "height": width}
@@ -694,7 +694,7 @@ def _draw_legend(
         path = f"{root}/lines/{k}"
         viewer[path].set_object(plane(), material)
         at = facing.copy()
-        at[:3, 3] = anchor + 0.5 * width * right - (0.05 + 0.06 * k) * size * up
+        at[:3, 3] = anchor + 0.5 * width * right - (0.04 + 0.045 * k) * size * up
         viewer[path].set_transform(at)
         sent.append(path)
     return sent
