@@ -8,19 +8,22 @@ imported when a picture is drawn or a view is served, and its absence is a
 - :func:`plot_trajectory`: along a trajectory of the driven joint (``solve_many(configurations=
   ...)``): the outputs' deviation, the contact forces and the contact-mode changes
   (:mod:`.trajectory`);
-- :func:`show_equilibrium`: the URDF's visual meshes at the magnified settled pose in a browser
-  (:mod:`.viz`).
+- :func:`show_equilibrium`: the URDF's visual meshes at the magnified settled pose in a browser,
+  with a legend and a scale bar (:mod:`.viz`; meshcat, or viser with ``backend="viser"``:
+  :mod:`.viz_viser`);
+- :func:`show_trajectory`: a batch along a path played in the browser, one step per answer.
 """
 
 from .settled import contact_arrows, plot_equilibrium
 from .skeleton import Skeleton, magnify, skeleton
 from .trajectory import contact_modes, plot_trajectory
-from .viz import View, show_equilibrium
+from .viz import View, show_equilibrium, show_trajectory
 
 __all__ = [
     "plot_equilibrium",
     "plot_trajectory",
     "show_equilibrium",
+    "show_trajectory",
     "skeleton",
     "Skeleton",
     "magnify",
