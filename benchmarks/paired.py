@@ -6,6 +6,10 @@ solved by ours and by the peer back to back, in alternating order (ours first on
 each load gives one ratio peer time / our time; the per-case figure is the median of those ratios,
 the drift cancels in each pair. Timed per paper case:
 
+Ours runs as a user writes it: default settings, and the load objects built inside each timed
+call from the case's vectors (a planner builds its loads in its loop); the peer is given its
+cost vector, as a prebuilt optimiser takes it.
+
 - ``resolve``: ``mechanism.solve(loads)`` (warm start from the nearest recent answer) against
   ``peers.ClarabelPrebuilt(...).solve`` (built once with the case's load, ``update(q=...)``), at
   Clarabel's default tolerances and at 1e-12, and ``peers.QocoPrebuilt`` (built once,
@@ -15,7 +19,13 @@ the drift cancels in each pair. Timed per paper case:
   the same peers;
 - ``cold``: ``mechanism.solve(loads, warm_start=False)`` against the same peers;
 - ``batch``: ``mechanism.solve_many`` over the loads in a new random order against a loop of the
-  peer over the same order, ``repeats`` times alternating, a ratio per repeat.
+  peer over the same order, ``repeats`` times alternating, a ratio per repeat;
+- ``arrays``: ``resolver.solve_many(vectors)`` (the same loads as one array (N, k, 3), no load
+  object built) against the same loop of the peer, per case.
+
+At the end one Markdown table gives per case the median time of ours, Clarabel built once (its
+default tolerances and 1e-12), QOCO built once and the floor, with the ratios (peer / ours: above
+1, ours is faster).
 
 Beside them, the floor of each case (floor.py, in the same process after the pairs): Newton on
 the KKT system of a known active set: the compiled kernel alone on one load
@@ -29,7 +39,7 @@ work_precision.py: the same paths on the same loads).
 
 Usage: ``python benchmarks/paired.py [--cases ID ...] [--loads N] [--json out/paired.json]``.
 JSON: ``{"cases": {id: {"resolve": {peer: {"ratio_median", "ratio_p10", "ratio_p90", "ours_us",
-"peer_us"}}, "resolver": ..., "cold": ..., "batch": ...}}, "worst": {path: {peer: worst median
+"peer_us"}}, "resolver": ..., "cold": ..., "batch": ..., "arrays": ...}}, "worst": {path: {peer: worst median
 ratio}},
 "settings": ...}``.
 """
@@ -58,7 +68,7 @@ PEERS = {
     "clarabel_prebuilt": (peers.ClarabelPrebuilt, 1e-12),
     **({"qoco_prebuilt_default": (peers.QocoPrebuilt, None)} if peers.qoco_available() else {}),
 }
-PATHS = ("resolve", "resolver", "cold", "batch")
+PATHS = ("resolve", "resolver", "cold", "batch", "arrays")
 
 
 def _pair(ours, peer, first_ours: bool) -> tuple[float, float]:
@@ -92,10 +102,21 @@ def paired_case(case: wp.Case, repeats: int, seed: int) -> dict:
     resolver = mechanism.resolver(case.nominal)
     vectors = [wp.load_vector(x) for x in loads]
     nominal_vector = wp.load_vector(case.nominal)
+    template = [load for load in loads[0] if isinstance(load, (PointForce, Torque))]
+
+    def built(vector: np.ndarray) -> list:
+        """The case's load objects from its vector (3 k,), as a planner builds them."""
+        return [
+            PointForce(load.link, vector[3 * k : 3 * k + 3], load.point)
+            if isinstance(load, PointForce)
+            else Torque(load.link, vector[3 * k : 3 * k + 3])
+            for k, load in enumerate(template)
+        ]
+
     calls = {  # path: (untimed call building the structure, a call per load)
         "resolve": (
             lambda: mechanism.solve(case.nominal),
-            [lambda o=o: mechanism.solve(o) for o in loads],
+            [lambda v=v: mechanism.solve(built(v)) for v in vectors],
         ),
         "resolver": (
             lambda: resolver.solve(nominal_vector),
@@ -103,7 +124,7 @@ def paired_case(case: wp.Case, repeats: int, seed: int) -> dict:
         ),
         "cold": (
             lambda: mechanism.solve(case.nominal, warm_start=False),
-            [lambda o=o: mechanism.solve(o, warm_start=False) for o in loads],
+            [lambda v=v: mechanism.solve(built(v), warm_start=False) for v in vectors],
         ),
     }
     out: dict = {path: {} for path in PATHS}
@@ -143,6 +164,26 @@ def paired_case(case: wp.Case, repeats: int, seed: int) -> dict:
             times[0].append(pair[0] / len(loads))
             times[1].append(pair[1] / len(loads))
         out["batch"][name] = _summary(*times)
+        array = np.array(vectors)
+        times = ([], [])
+        for k in range(repeats):
+            order = rng.permutation(len(loads))
+            wp.forget_answers(mechanism)
+            gc.collect()
+
+            def arrays(order=order, array=array):
+                result = resolver.solve_many(array[order], progress=False)
+                for joint in case.joints:
+                    result.torsors(joint)
+
+            def peer_loop(order=order, solver=prebuilt):
+                for i in order:
+                    solver.solve(*peer_loads[i])
+
+            pair = _pair(arrays, peer_loop, k % 2 == 0)
+            times[0].append(pair[0] / len(loads))
+            times[1].append(pair[1] / len(loads))
+        out["arrays"][name] = _summary(*times)
     out["floor"] = _floor(case)
     return out
 
@@ -176,6 +217,47 @@ def _floor(case: wp.Case) -> dict:
         "floor_vectorised_us": 1e6 * found["vectorised_per_load_s"],
         "loads_on_known_set": found["loads_on_known_set"],
     }
+
+
+def markdown_table(results: dict) -> str:
+    """One row per case: medians [us] of ours (re-solve, resolver, from arrays), of the peers
+    built once and of the floor, and the ratios peer / ours of the re-solve (above 1: ours is
+    faster)."""
+    qoco = "qoco_prebuilt_default" in PEERS
+    head = (
+        "| case | ours solve | ours resolver | ours arrays /case | Clarabel once | "
+        "Clarabel once 1e-12 | " + ("QOCO once | " if qoco else "") + "floor compiled | "
+        "Clarabel / ours (solve, resolver, arrays) | " + ("QOCO / ours (solve) |" if qoco else "")
+    )
+    lines = [head, "|" + " --- |" * (head.count("|") - 1)]
+    for case_id, row in results.items():
+        default, tight = (
+            row["resolve"]["clarabel_prebuilt_default"],
+            row["resolve"]["clarabel_prebuilt"],
+        )
+        floor_row = row["floor"]
+        compiled = floor_row.get("floor_compiled_us") if floor_row.get("measured") else None
+        cells = [
+            case_id,
+            f"{default['ours_us']:.0f}",
+            f"{row['resolver']['clarabel_prebuilt_default']['ours_us']:.0f}",
+            f"{row['arrays']['clarabel_prebuilt_default']['ours_us']:.1f}",
+            f"{default['peer_us']:.0f}",
+            f"{tight['peer_us']:.0f}",
+        ]
+        if qoco:
+            cells.append(f"{row['resolve']['qoco_prebuilt_default']['peer_us']:.0f}")
+        cells.append("-" if compiled is None else f"{compiled:.1f}")
+        cells.append(
+            ", ".join(
+                f"{row[path]['clarabel_prebuilt_default']['ratio_median']:.2f}"
+                for path in ("resolve", "resolver", "arrays")
+            )
+        )
+        if qoco:
+            cells.append(f"{row['resolve']['qoco_prebuilt_default']['ratio_median']:.2f}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -225,6 +307,8 @@ def main(argv: list[str] | None = None) -> int:
     print("worst median ratio over the cases (peer / ours, default tol / 1e-12):")
     for path, row in worst.items():
         print(f"  {path}: {row['clarabel_prebuilt_default']:.2f} / {row['clarabel_prebuilt']:.2f}")
+    print()
+    print(markdown_table(results))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         document = {"cases": results, "worst": worst, "settings": vars(args) | {"json": None}}
