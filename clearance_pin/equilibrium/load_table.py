@@ -113,6 +113,48 @@ class LoadVectors(Sequence[tuple[object, ...]]):
         return tuple(loads)
 
 
+def uniform_vectors(cases: Sequence[object]) -> LoadVectors | None:
+    """``cases`` as :class:`LoadVectors` when every case is a list or tuple of the first case's
+    loads (kinds, links, points, gravities) with other force and torque vectors; None
+    otherwise (another set of loaded points, the model's loads (None), not a load). Already
+    LoadVectors: themselves."""
+    if isinstance(cases, LoadVectors):
+        return cases
+    if not cases or type(cases[0]) not in (tuple, list):
+        return None
+    first: Sequence[object] = cases[0]  # type: ignore[assignment]  # a list or tuple
+    # per position of the first case: (kind, link, the point or gravity it must equal)
+    layout = [
+        (type(load), getattr(load, "link", None),
+         load.point.tobytes() if type(load) is PointForce else
+         load.acceleration.tobytes() if type(load) is Gravity else None)
+        for load in first
+    ]  # fmt: skip
+    if any(kind not in KIND for kind, _, _ in layout):
+        return None
+    size = len(layout)
+    vectors = []
+    for loads in cases:
+        if type(loads) not in (tuple, list) or len(loads) != size:  # type: ignore[arg-type]
+            return None
+        for load, (kind, link, known) in zip(loads, layout):  # type: ignore[call-overload]
+            if type(load) is not kind:
+                return None
+            if kind is PointForce:
+                if load.link != link or load.point.tobytes() != known:
+                    return None
+                vectors.append(load.force)
+            elif kind is Torque:
+                if load.link != link:
+                    return None
+                vectors.append(load.torque)
+            elif load.acceleration.tobytes() != known:
+                return None
+    width = 3 * sum(kind in (PointForce, Torque) for kind, _, _ in layout)
+    array = _rows(vectors).reshape(len(cases), width) if width else np.zeros((len(cases), 0))
+    return LoadVectors(first, array)
+
+
 def load_table(
     mechanism: Mechanism,
     cases: Sequence[Sequence[object] | None] | LoadVectors,
@@ -378,6 +420,7 @@ __all__ = [
     "BodyTerms",
     "LoadTable",
     "LoadVectors",
+    "uniform_vectors",
     "body_terms",
     "body_wrenches",
     "centred_wrenches",
