@@ -349,13 +349,42 @@ def check_solve_many(
     if loads is None:
         check_load_magnitudes((*mechanism.loads, mechanism.gravity), "the model's loads")
     if configurations is not None:
-        if isinstance(configurations, (str, bytes)) or not isinstance(configurations, Iterable):
-            raise ArgumentError(
-                "configurations", "a list of configurations q, each (nq,)", configurations
-            )
-        if isinstance(configurations, (Sequence, np.ndarray)):  # not consuming an iterator
-            for index, q in enumerate(configurations):
-                check_configuration(mechanism, q, f"configurations[{index}]", warn=False)
+        check_configurations(mechanism, configurations)
+
+
+def check_configurations(mechanism: Mechanism, configurations: object) -> list[np.ndarray | None]:
+    """A list of configurations (Q, nq) [rad, m] of :meth:`Mechanism.solve_many` or
+    ``resolver.solve_many``, each checked (:func:`check_configuration`; None: the nominal one);
+    one configuration (nq,) given alone is refused naming the shape expected. Values outside
+    the joints' limits or beyond a turn give one :class:`~clearance_pin.errors.SuspectValueWarning`
+    for the whole list: how many configurations, the first one and its joint."""
+    nq = mechanism.model.nq
+    expected = f"a list of configurations q, shape (Q, {nq})"
+    if isinstance(configurations, (str, bytes)) or not isinstance(configurations, Iterable):
+        raise ArgumentError("configurations", expected, configurations)
+    if not isinstance(configurations, (Sequence, np.ndarray)):  # an iterator: read once
+        configurations = list(configurations)
+    shape = np.shape(configurations) if _numeric(configurations) else None
+    if shape is not None and len(shape) == 1:
+        raise ArgumentError(
+            "configurations", expected, configurations,
+            f"shape {shape}: one configuration; write [q] for one",
+        )  # fmt: skip
+    checked = [
+        check_configuration(mechanism, q, f"configurations[{index}]", warn=False)
+        for index, q in enumerate(configurations)
+    ]
+    given = [q for q in checked if q is not None]
+    if given:
+        plausibility.warn_configurations(mechanism, np.asarray(given), stacklevel=4)
+    return checked
+
+
+def _numeric(values: object) -> bool:
+    try:
+        return np.asarray(values).dtype.kind in "iuf"
+    except (TypeError, ValueError):  # ragged
+        return False
 
 
 def check_clearance_sizes(mechanism: Mechanism) -> None:

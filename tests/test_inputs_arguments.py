@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import pickle
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -181,3 +182,29 @@ def test_text_q_in_the_file_is_a_model_error():
         cp.loads(text)
     assert caught.value.element == "<joint name='shoulder'>"
     assert "'60deg' is not a number" in caught.value.problem
+
+
+def test_many_configurations_checked_as_a_list():
+    """solve_many and resolver.solve_many: one configuration (nq,) given alone is refused naming
+    the shape expected; values outside the joints' limits give one SuspectValueWarning for the
+    list (how many, the first), as one solve's q gives one."""
+    arm = cp.load(str(Path(__file__).resolve().parents[1] / "models" / "arm_6r.urdf"))
+    resolver = arm.resolver()
+    q = arm.q_nominal
+    for call in (
+        lambda: arm.solve_many(configurations=q),
+        lambda: resolver.solve_many([[0.0, 0.0, -5.0]], configurations=q),
+    ):
+        with pytest.raises(cp.ArgumentError, match=r"shape \(6,\): one configuration"):
+            call()
+    poses = [q.copy() for _ in range(4)]
+    poses[2][1], poses[3][1] = 1e6, 7.0
+    for call in (
+        lambda: arm.solve_many(configurations=poses),
+        lambda: resolver.solve_many([[0.0, 0.0, -5.0]], configurations=poses),
+    ):
+        with pytest.warns(cp.SuspectValueWarning) as caught:
+            call()
+        assert len(caught) == 1
+        assert "2 of 4 put joint 'shoulder_lift'" in str(caught[0].message)
+        assert "configurations[2]" in str(caught[0].message)

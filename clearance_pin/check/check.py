@@ -77,9 +77,8 @@ def check_equilibrium(
     exact = exact_pose(equilibrium)
     solve_time = time.perf_counter() - started
     report = _measure(exact, *options)
-    return dataclasses.replace(
-        report, departure=_measure(equilibrium, *options), exact_solve_time=solve_time
-    )
+    departure = dataclasses.replace(_measure(equilibrium, *options), information=True)
+    return dataclasses.replace(report, departure=departure, exact_solve_time=solve_time)
 
 
 def exact_pose(linear: Equilibrium) -> Equilibrium:

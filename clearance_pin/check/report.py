@@ -160,6 +160,8 @@ class CheckReport:
             boundaries (its second-order error; information, not part of the verdict).
         exact_solve_time: wall time [s] of the exact solve that gave the checked pose (0 when
             the pose was measured as solved).
+        information: this report is a linear pose's departure (information, not a verdict: its
+            summary says how far off, not FAILED).
     """
 
     formulation: str
@@ -172,6 +174,7 @@ class CheckReport:
     notes: tuple[str, ...] = field(default=())
     departure: CheckReport | None = None
     exact_solve_time: float = 0.0
+    information: bool = False
 
     @property
     def ok(self) -> bool:
@@ -199,6 +202,12 @@ class CheckReport:
         """One line: verdict, size, times, and for a linear pose how far off it sits."""
         count = sum(len(j.readings) for j in self.joints.values())
         off, where = self.off_boundary
+        if self.information:
+            return (
+                f"departure of the small-displacement pose from the real boundaries (information, "
+                f"not a verdict): up to {off * length:.4g} {unit}{f' at {where}' if where else ''}"
+                f", {count} readings in {len(self.joints)} joints"
+            )
         checked = self.formulation
         if self.departure is not None:
             checked = "the exact pose of the small-displacement answer"

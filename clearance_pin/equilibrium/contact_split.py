@@ -22,7 +22,6 @@ torsors, the energy and the statics do not change; the answer no longer depends 
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import nnls
 
 DEPENDENT = 1e-10  # a singular value below this of the largest: the gradients are dependent
 EQUALITY_WEIGHT = 1e6  # of the equality rows in the non-negative least squares
@@ -70,6 +69,8 @@ def _non_negative(rows: np.ndarray, target: np.ndarray) -> np.ndarray | None:
     count = rows.shape[1]
     weight = EQUALITY_WEIGHT
     matrix = np.vstack([weight * rows, np.eye(count)])
+    from scipy.optimize import nnls  # imported on first use: SciPy's import costs 0.2 s
+
     rough, _ = nnls(matrix, np.concatenate([weight * target, np.zeros(count)]), maxiter=50 * count)
     scale = float(np.abs(rough).max(initial=0.0))
     support = rough > 1e-9 * scale

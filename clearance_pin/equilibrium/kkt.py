@@ -17,6 +17,9 @@ contact feasible, KKT residual at round-off.
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
+
 import numpy as np
 
 from ..numerics import null_space, row_spaces
@@ -316,17 +319,25 @@ def _numpy_lu_solve(matrix: np.ndarray, right: np.ndarray):
         return None
 
 
-def _lapack_lu_solve(matrix: np.ndarray, right: np.ndarray):
-    _, _, solution, info = _dgesv(matrix, right)
-    return solution if info == 0 else None
+@functools.cache
+def _lu_solver() -> Callable[[np.ndarray, np.ndarray], np.ndarray | None]:
+    """The LU solver of the Newton steps: SciPy's LAPACK dgesv when installed (the fast extra: a
+    third of NumPy's wrapper's cost), chosen at the first step, not when clearance_pin is
+    imported (SciPy's import costs about 0.1 s)."""
+    try:
+        from scipy.linalg.lapack import dgesv
+    except ImportError:  # pragma: no cover - depends on the installed extras
+        return _numpy_lu_solve
+
+    def lapack_lu_solve(matrix: np.ndarray, right: np.ndarray) -> np.ndarray | None:
+        _, _, solution, info = dgesv(matrix, right)
+        return solution if info == 0 else None
+
+    return lapack_lu_solve
 
 
-try:  # LAPACK's dgesv without NumPy's wrapper costs a third (SciPy comes with the fast extra)
-    from scipy.linalg.lapack import dgesv as _dgesv
-
-    _lu_solve = _lapack_lu_solve
-except ImportError:  # pragma: no cover - depends on the installed extras
-    _lu_solve = _numpy_lu_solve
+def _lu_solve(matrix: np.ndarray, right: np.ndarray) -> np.ndarray | None:
+    return _lu_solver()(matrix, right)
 
 
 def active_set_solve(

@@ -23,7 +23,7 @@ import numpy as np
 from ..arguments import (
     LARGEST_MAGNITUDE,
     SMALLEST_LOAD,
-    check_configuration,
+    check_configurations,
     check_load_magnitudes,
     check_solve,
 )
@@ -215,18 +215,12 @@ class Resolver:
         return vectors
 
     def _poses(self, configurations: Any) -> list[np.ndarray]:
-        """``configurations`` as a list of checked configurations q (nq,)."""
-        if isinstance(configurations, (str, bytes)) or not hasattr(configurations, "__len__"):
-            raise ArgumentError(
-                "configurations", "a list of configurations q (nq,)", configurations
-            )
-        own = self.mechanism.q_nominal if self._q is None else self._q
-        poses = [
-            check_configuration(self.mechanism, q, f"configurations[{index}]", warn=False)
-            for index, q in enumerate(configurations)
-        ]
+        """``configurations`` as a list of checked configurations q (nq,) (None: the
+        resolver's own), one warning for those outside the joints' limits."""
+        poses = check_configurations(self.mechanism, configurations)
         if not poses:
             raise ArgumentError("configurations", "at least one configuration", configurations)
+        own = self.mechanism.q_nominal if self._q is None else self._q
         return [np.asarray(own if q is None else q, dtype=float) for q in poses]
 
     def _resolve_compiled(self, vector: np.ndarray) -> Equilibrium | None:

@@ -154,6 +154,34 @@ def nominal_problem(model: pin.Model, joint_id: int, value: float) -> str | None
     return problem
 
 
+def warn_configurations(mechanism: Checked, q: np.ndarray, stacklevel: int = 2) -> None:
+    """One warning for many configurations ``q`` (Q, nq) [rad, m]: the first joint with a value
+    outside its limits or beyond a turn (:func:`nominal_problem`, asked of the whole column at
+    once), how many configurations do so, and the first of them."""
+    model = mechanism.model
+    for joint_id in range(1, model.njoints):
+        joint = model.joints[joint_id]
+        if joint.nq != 1:
+            continue
+        values = q[:, joint.idx_q]
+        beyond = np.zeros(len(q), dtype=bool)
+        limits = limits_of(model, joint_id)
+        if limits is not None:
+            beyond |= (values < limits[0] - LIMIT_SLACK) | (values > limits[1] + LIMIT_SLACK)
+        if MOTION_COMPONENT_BY_PIN_JOINT.get(joint.shortname()) == ALPHA:
+            beyond |= np.abs(values) > TURN
+        if beyond.any():
+            first = int(np.flatnonzero(beyond)[0])
+            problem = nominal_problem(model, joint_id, float(values[first]))
+            _warn(
+                f"{mechanism.source}: configurations: {int(beyond.sum())} of {len(q)} put joint "
+                f"{model.names[joint_id]!r} outside its limits or beyond a turn; the first, "
+                f"configurations[{first}]: {problem}",
+                stacklevel + 1,
+            )
+            return
+
+
 def configuration_values(model: pin.Model, q: np.ndarray) -> dict[int, float]:
     """The value [rad or m] of every joint with nq = 1 in a configuration ``q`` (nq,)."""
     return {
