@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import ArgumentError, NotFoundError
+from ..numerics import Array
 from .batch_answers import StackedAnswers, contact_forces
-from .blocks import Array
 from .load_table import body_wrenches, load_table
 from .reactions import FRAMES, _generators, frames_at
 

@@ -26,7 +26,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .blocks import Array, BlockStructure, Mask, block_structure, closed_forms, reduced_unknowns
+from ..numerics import Array, Mask
+from .blocks import BlockStructure, block_structure, closed_forms, reduced_unknowns
 from .cone_solver import acceptance
 from .kkt import UNLOADED, StackedContacts
 from .lazy import LazySequence
