@@ -177,7 +177,7 @@ def flat_notes(
             for column in columns
         ]
 
-    return LazySequence(notes)  # type: ignore[no-untyped-call]
+    return LazySequence(notes)
 
 
 def centred_problem(
