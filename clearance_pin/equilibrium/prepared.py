@@ -30,7 +30,7 @@ from ..numerics import column_space, null_space
 from .cache import GRAVITIES_KEPT, LeastRecentlyUsed
 from .kkt import UNLOADED
 from .lazy import LazySequence
-from .load_terms import gather_body_loads
+from .load_terms import PlacementMemo, gather_body_loads
 from .reduction import (
     ROUND_OFF_WORK,
     UNBOUNDED_FRACTION,
@@ -80,7 +80,7 @@ class PreparedGeometry:
         }
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
-        self._placements: dict = {}  # loaded links and masses at this configuration (load_terms)
+        self._placements = PlacementMemo()  # loaded links and masses at this configuration
         # per acceleration at this q: the few most recent (a tilting base gives a new one per solve)
         self._gravity_wrenches: LeastRecentlyUsed[bytes, np.ndarray] = LeastRecentlyUsed(
             GRAVITIES_KEPT
