@@ -40,7 +40,7 @@ import numpy as np
 from ..errors import UnboundedLoadError
 from ..kinematics.loop_frames import nominal_offsets
 from ..model.clearance import COMPONENT_MEANING, COMPONENT_NAMES, ContactPoint
-from ..model.couplings import Coupling
+from ..model.couplings import Coupling, coupled_joint
 from ..model.joints import LoopJoint, TreeJoint
 from ..numerics import Array, Index, Mask, norm, row_spaces
 from .kkt import StackedContacts
@@ -324,8 +324,8 @@ def reduce_geometry(
     contacts, equality_rows, equality_joints = _constraints(maps, joints)
     for coupling in couplings:
         follower, leader = (
-            _tree_joint(joints, coupling.follower),
-            _tree_joint(joints, coupling.leader),
+            coupled_joint(joints, coupling.follower),
+            coupled_joint(joints, coupling.leader),
         )
         equality_rows.append(
             maps.play_torsor[follower.name][follower.motion_component]
@@ -498,14 +498,6 @@ def loaded_problem(
         geometry.translational,
         hessian,
     )
-
-
-def _tree_joint(joints: Joints, name: str) -> TreeJoint:
-    """The joint ``name`` of a coupling: a tree joint (couplings join the model's joints)."""
-    joint = joints[name]
-    if not isinstance(joint, TreeJoint):
-        raise TypeError(f"a coupling joins tree joints; {name!r} is a loop joint")
-    return joint
 
 
 def _constraints(
