@@ -67,7 +67,7 @@ class BodyLoad:
 def gather_body_loads(
     model: pin.Model,
     placed: Placed,
-    loads: tuple[Load, ...],
+    loads: Sequence[Load],
     link_frames: Mapping[str, int],
     memo: PlacementMemo | None = None,
 ) -> dict[int, BodyLoad]:
