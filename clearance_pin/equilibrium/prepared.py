@@ -17,7 +17,7 @@ times, so every load-independent product is formed here, and a solve costs a few
 from __future__ import annotations
 
 import statistics
-from collections.abc import Hashable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, overload
 
@@ -37,6 +37,7 @@ from .reduction import (
     UNBOUNDED_FRACTION,
     ReducedGeometry,
     ReducedProblem,
+    Signature,
     describe_motion,
     reduce_geometry,
     with_scaled_load,
@@ -97,7 +98,7 @@ class PreparedGeometry:
         )
 
     @property
-    def signature(self) -> tuple[Hashable, ...]:
+    def signature(self) -> Signature:
         """Sizes and contact shapes: what a built optimiser depends on."""
         return self.terms.signature
 
@@ -372,7 +373,7 @@ class GeometryTerms:
             rotation (:meth:`PreparedGeometry.statics_residual`: forces and moments in N alike).
     """
 
-    signature: tuple[Hashable, ...]
+    signature: Signature
     size_x: int
     split: tuple[int, int]
     play: float

@@ -32,7 +32,7 @@ objective becomes :math:`f^T y + \tfrac12 y^T H y` with
 from __future__ import annotations
 
 import statistics
-from collections.abc import Hashable, Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +47,9 @@ from .kkt import StackedContacts
 from .lazy import LazySequence
 from .small_displacement import SmallDisplacementMaps
 
+# what a built solver depends on: (reduced unknowns r, per contact (shape, rows)[, True when the
+# objective is quadratic])
+Signature = tuple[int, tuple[tuple[str, int], ...]] | tuple[int, tuple[tuple[str, int], ...], bool]
 # joint name -> TreeJoint or LoopJoint (tree joints first, in tree order)
 Joints = Mapping[str, TreeJoint | LoopJoint]
 
@@ -108,7 +111,7 @@ class ReducedProblem:
     contacts: tuple[ContactConstraint, ...]
     equalities: np.ndarray
     free_motions: np.ndarray
-    free_descriptions: Sequence[str]
+    free_descriptions: LazySequence[str]
     objective: np.ndarray
     objective_scale: float
     contact_matrices: tuple[np.ndarray, ...]
@@ -129,7 +132,7 @@ class ReducedProblem:
         x: Array = self.scale * (self.basis @ y)  # (NumPy's stubs: Any)
         return x
 
-    def signature(self) -> tuple[Hashable, ...]:
+    def signature(self) -> Signature:
         """What a built solver depends on: sizes and shapes, not numbers (and whether the
         objective is quadratic)."""
         shapes = tuple((c.contact.shape, c.rows.shape[0]) for c in self.contacts)
@@ -151,7 +154,7 @@ class ReducedGeometry:
     equalities: np.ndarray
     free_motions: np.ndarray
     free_scaled: np.ndarray
-    free_descriptions: Sequence[str]
+    free_descriptions: LazySequence[str]
     contact_matrices: tuple[np.ndarray, ...]
     stack: StackedContacts
     conditioning: float = 1.0
