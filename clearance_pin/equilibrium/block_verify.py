@@ -185,7 +185,7 @@ def centred_problem(
     prepared: PreparedGeometry,
     structure: BlockStructure,
     problem: ReducedProblem,
-    loads: tuple[Load, ...],
+    loads: Sequence[Load],
 ) -> ReducedProblem | None:
     r"""``problem`` with the gradient of ``loads`` formed from the wrenches about each joint's
     own centre (:mod:`.tree_trajectory`: :math:`g = W G`, W the body wrenches about the body
@@ -220,7 +220,7 @@ def centred_problem(
 def closed_form_answer(
     prepared: PreparedGeometry,
     problem: ReducedProblem,
-    loads: tuple[Load, ...],
+    loads: Sequence[Load],
     started: float,
 ) -> Equilibrium | None:
     """The verified closed-form equilibrium of one load (:mod:`.blocks`), or None when the
