@@ -59,8 +59,7 @@ def coupled_joint(joints: Mapping[str, TreeJoint | LoopJoint], name: str) -> Tre
     """The joint ``name`` of a coupling, in ``joints`` (joint name -> joint): a tree joint, as
     couplings join the model's joints."""
     joint = joints[name]
-    if not isinstance(joint, TreeJoint):
-        raise TypeError(f"a coupling joins tree joints; {name!r} is a loop joint")
+    assert isinstance(joint, TreeJoint)  # couplings are read from the model's (tree) joints
     return joint
 
 
