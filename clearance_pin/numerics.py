@@ -8,6 +8,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
+
+# the array types the solver's annotations name (equilibrium/ and what it reads)
+Array = npt.NDArray[np.float64]
+Mask = npt.NDArray[np.bool_]
+Index = npt.NDArray[np.intp]
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

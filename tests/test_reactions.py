@@ -11,6 +11,7 @@ the loads, the poses of the points and the balance are ours.
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -300,6 +301,19 @@ def test_bad_arguments_are_named():
     unknown = replace(equilibrium, loads=None)
     with pytest.raises(ClearancePinError, match="does not carry the loads"):
         unknown.reaction(next(iter(mechanism.joints)))
+
+
+def test_contact_without_a_position_is_refused_by_name():
+    """A contact without its position (``Contact.position`` None, which no solver returns) has
+    no known moment: the reaction says which contact, rather than NumPy failing on None."""
+    mechanism = clearance_pin.load(MODELS[0])
+    equilibrium = mechanism.solve()
+    first, *rest = equilibrium.contacts
+    unplaced = replace(equilibrium, contacts=(replace(first, position=None, moment=None), *rest))
+    with pytest.raises(
+        ClearancePinError, match=re.escape(f"contact {first.label} has no position")
+    ):
+        unplaced.reaction(first.joint)
 
 
 def test_batched_answers_carry_their_reactions():

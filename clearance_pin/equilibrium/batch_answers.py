@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .blocks import Array, Mask
+from ..numerics import Array, Mask
 from .linear_answer import ACTIVE_RELATIVE_GAP, split_force_rows
 from .small_displacement import tree_joint_basis
 

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
-from .blocks import Array
+from ..numerics import Array
 
 if TYPE_CHECKING:
     from ..model.mechanism_parts import MechanismParts as Mechanism

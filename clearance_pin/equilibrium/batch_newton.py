@@ -18,18 +18,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..numerics import Array, Mask
 from .kkt import ACCEPT_KKT, POLISH_TOL, PROXIMAL, StackedContacts, kkt_passed, kkt_table
 
 
 def batched_newton(
     stack: StackedContacts,
-    objectives: np.ndarray,
-    y0: np.ndarray,
-    multipliers0: np.ndarray,
-    signs: np.ndarray,
+    objectives: Array,
+    y0: Array,
+    multipliers0: Array,
+    signs: Array,
     iterations: int = 8,
     accept: float = ACCEPT_KKT,
-):
+) -> tuple[Array, Array, Mask, Array]:
     """Solve the KKT systems of the contact set of (y0, multipliers0) for every row of objectives.
 
     Args:
@@ -77,7 +78,7 @@ def batched_newton(
     return y.copy(), np.maximum(multipliers, 0.0), verified, table
 
 
-def _minimum_norm_forces(gradients, objectives, lam):
+def _minimum_norm_forces(gradients: Array, objectives: Array, lam: Array) -> Array:
     """Per case, as :func:`.kkt._minimum_norm_forces`: Newton's multipliers when the active
     gradients are independent, else the minimum-norm ones when they are non-negative."""
     count, size = gradients.shape[1:]
@@ -92,7 +93,7 @@ def _minimum_norm_forces(gradients, objectives, lam):
     return np.where(use_least[:, None], np.maximum(least, 0.0), lam)
 
 
-def stacked_evaluation(stack: StackedContacts, y: np.ndarray, signs: np.ndarray):
+def stacked_evaluation(stack: StackedContacts, y: Array, signs: Array) -> tuple[Array, Array]:
     """For every case, phi of every contact (slabs on either side, |.|) and the gradients of
     every contact on the sides ``signs``: ((N, m), (N, m, r)), as :meth:`.kkt.StackedContacts.evaluate`."""
     image = y @ stack.matrix.T + stack.offset
@@ -103,7 +104,14 @@ def stacked_evaluation(stack: StackedContacts, y: np.ndarray, signs: np.ndarray)
     return phi, gradients
 
 
-def _verify(stack: StackedContacts, objectives, y, multipliers, signs, accept):
+def _verify(
+    stack: StackedContacts,
+    objectives: Array,
+    y: Array,
+    multipliers: Array,
+    signs: Array,
+    accept: float,
+) -> tuple[Mask, Array]:
     phi, gradients = stacked_evaluation(stack, y, signs)
     stationarity = objectives + np.einsum("nmr,nm->nr", gradients, multipliers)
     table = kkt_table(stationarity, phi, multipliers)

@@ -16,16 +16,20 @@ nominal pose of each case (:mod:`.poses`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
 from ..errors import ArgumentError, NotFoundError
+from ..numerics import Array
 from .batch_answers import StackedAnswers, contact_forces
-from .blocks import Array
 from .load_table import body_wrenches, load_table
+from .poses import ClearanceFrames
 from .reactions import FRAMES, _generators, frames_at
+
+# the frames _generators is given where only its local wrenches are read (placed per case here)
+_UNPLACED = ClearanceFrames(pin.SE3.Identity(), pin.SE3.Identity(), 0, 0)
 
 PARTS = ("contact", "rigid", "drive", "held")
 
@@ -136,7 +140,7 @@ def stacked_reactions(answers: StackedAnswers) -> StackedReactions:
     columns, owners = [], []
     for name in names:
         joint = mechanism.joints[name]
-        for part, local, _ in _generators(joint, SimpleNamespace(child=None), False):
+        for part, local, _ in _generators(joint, _UNPLACED, False):
             for column in local.T:
                 columns.append(placed(column, index[name]))  # (K, 6)
                 owners.append((index[name], part))

@@ -21,15 +21,14 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from ..errors import ClearancePinError
+from ..numerics import Array, Mask
 from .batch import Cases, EquilibriumBatch, name_case
 from .batch_answers import StackedAnswers
 from .batch_kinematics import body_placements
 from .block_verify import SOLVER_STATUS, flat_notes, verify
 from .blocks import (
-    Array,
     BlockStructure,
     ClosedForms,
-    Mask,
     block_structure,
     closed_forms,
     reduced_unknowns,

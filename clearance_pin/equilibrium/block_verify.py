@@ -26,8 +26,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..numerics import Array, Mask
 from . import kkt
-from .blocks import Array, BlockStructure, Mask, block_structure, closed_forms, reduced_unknowns
+from .blocks import BlockStructure, block_structure, closed_forms, reduced_unknowns
 from .cone_solver import acceptance
 from .kkt import RESIDUAL_NAMES, UNLOADED, StackedContacts
 from .lazy import LazySequence
@@ -39,6 +40,7 @@ from .residuals import verified
 from .tree_trajectory import centre_map, tree_maps
 
 if TYPE_CHECKING:
+    from ..model.loads import Load
     from .prepared import PreparedGeometry
     from .result import Equilibrium
 
@@ -164,14 +166,14 @@ def flat_notes(
             for column in columns
         ]
 
-    return LazySequence(notes)  # type: ignore[no-untyped-call]
+    return LazySequence(notes)
 
 
 def centred_problem(
     prepared: PreparedGeometry,
     structure: BlockStructure,
     problem: ReducedProblem,
-    loads: tuple[object, ...],
+    loads: Sequence[Load],
 ) -> ReducedProblem | None:
     r"""``problem`` with the gradient of ``loads`` formed from the wrenches about each joint's
     own centre (:mod:`.tree_trajectory`: :math:`g = W G`, W the body wrenches about the body
@@ -206,7 +208,7 @@ def centred_problem(
 def closed_form_answer(
     prepared: PreparedGeometry,
     problem: ReducedProblem,
-    loads: tuple[object, ...],
+    loads: Sequence[Load],
     started: float,
 ) -> Equilibrium | None:
     """The verified closed-form equilibrium of one load (:mod:`.blocks`), or None when the

@@ -59,14 +59,10 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-import numpy.typing as npt
 
+from ..numerics import Array, Index, Mask
 from .kkt import UNLOADED
 from .reduction import ReducedGeometry
-
-Array = npt.NDArray[np.float64]
-Mask = npt.NDArray[np.bool_]
-Index = npt.NDArray[np.intp]
 
 LOADED_SHARE = 2.0 * UNLOADED  # of the largest multiplier: loaded, with a margin of 2
 NEGLIGIBLE_SHARE = 0.5 * UNLOADED  # of the largest multiplier: unloaded, with a margin of 2

@@ -17,11 +17,15 @@ from __future__ import annotations
 import contextlib
 import threading
 from collections import OrderedDict
-from typing import Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 import pinocchio as pin
 
 from ..errors import ArgumentError
+
+if TYPE_CHECKING:  # prepared.py imports this module
+    from .prepared import GeometryTerms, PreparedGeometry
+    from .reduction import ReducedGeometry
 
 GEOMETRIES_KEPT = 64  # prepared configurations per mechanism (a trajectory re-visits few)
 GRAVITIES_KEPT = 16  # gathered gravity wrenches per prepared configuration (a tilting base)
@@ -94,12 +98,14 @@ class SolveCache:
         self._model = model
         self._threads = threading.local()
         self.lock = threading.RLock()
-        self.geometries: LeastRecentlyUsed[Any, Any] = LeastRecentlyUsed(GEOMETRIES_KEPT)
-        self.tree_geometry: Any = None
+        self.geometries: LeastRecentlyUsed[bytes | None, PreparedGeometry] = LeastRecentlyUsed(
+            GEOMETRIES_KEPT
+        )
+        self.tree_geometry: ReducedGeometry | None = None
         self.play_twin: Any = None  # a tree with stiffness: the same tree with rigid joints
         # the closure's idle passive motions, with the (model, tree, loop joints) they count
         self.idle_motions: tuple[tuple[object, ...], int] | None = None
-        self.geometry_terms: dict[int, tuple[Any, Any]] = {}
+        self.geometry_terms: dict[int, tuple[ReducedGeometry, GeometryTerms]] = {}
         self.warm: dict[tuple[Any, ...], Any] = {}
         self.projection_hints: dict[tuple[Any, ...], set[bytes]] = {}
         self.exact_problems: LeastRecentlyUsed[tuple[Any, ...], Any] = LeastRecentlyUsed(
@@ -117,12 +123,13 @@ class SolveCache:
             data = self._threads.data = self._model.createData()
         return data
 
-    def geometry(self, key: Any) -> Any:
+    def geometry(self, key: bytes | None) -> PreparedGeometry | None:
         """The prepared geometry kept for ``key`` (marked as recently used), or None."""
         with self.lock:
-            return self.geometries.get(key)
+            prepared: PreparedGeometry | None = self.geometries.get(key)
+            return prepared
 
-    def keep_geometry(self, key: Any, prepared: Any) -> None:
+    def keep_geometry(self, key: bytes | None, prepared: PreparedGeometry) -> None:
         """Keep ``prepared`` for ``key``, dropping the least recently used beyond the limit (and
         the terms of the geometries no longer kept)."""
         with self.lock:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import MutableMapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,9 +37,16 @@ import numpy as np
 from ..errors import ArgumentError
 from . import ipopt
 from .elastic_newton import curvature_scaled, elastic_residuals, polish_elastic
-from .kkt import ACCEPT_KKT, ACTIVE_GAP, NEARLY_TOUCHING, active_set_solve, residuals
+from .kkt import (
+    ACCEPT_KKT,
+    ACTIVE_GAP,
+    NEARLY_TOUCHING,
+    StackedContacts,
+    active_set_solve,
+    residuals,
+)
 from .method import Method, backend_method
-from .reduction import ReducedProblem
+from .reduction import ReducedProblem, Signature
 
 BACKENDS = ("auto", "clarabel", "ipopt")
 WARM_MAX_SIZE = 48  # dense Newton steps cost O(size^3): larger problems go to the sparse backend
@@ -67,7 +75,7 @@ class ConeSolution:
     status: str
     iterations: int
     polished: bool
-    residuals: dict = field(default_factory=dict)
+    residuals: dict[str, float] = field(default_factory=dict)
     solve_time: float = 0.0
     setup_time: float = 0.0
     method: Method = Method.CLARABEL
@@ -88,12 +96,15 @@ def clarabel_available() -> bool:
     return True
 
 
+BackendAnswer = tuple[np.ndarray, np.ndarray, str, int]
+
+
 class IpoptBackend:
     """IPOPT on reduced problems with one signature (built once; f and P_j are parameters)."""
 
     name = "ipopt"
 
-    def __init__(self, signature: tuple, tol: float = 1e-12, max_iter: int = 200):
+    def __init__(self, signature: Signature, tol: float = 1e-12, max_iter: int = 200) -> None:
         import casadi as ca
 
         started = time.perf_counter()
@@ -134,7 +145,7 @@ class IpoptBackend:
         self._upper = np.ones(len(shapes))
         self.build_time = time.perf_counter() - started
 
-    def run(self, problem: ReducedProblem):
+    def run(self, problem: ReducedProblem) -> BackendAnswer:
         """(y, multipliers, status, iterations) from the nominal start y = 0."""
         stack = problem.stack
         parts = [problem.objective, stack.matrix.ravel(order="F"), stack.offset]
@@ -154,7 +165,7 @@ class ClarabelBackend:
 
     name = "clarabel"
 
-    def __init__(self, signature: tuple, tol: float = 1e-12):
+    def __init__(self, signature: Signature, tol: float = 1e-12) -> None:
         import clarabel
         from scipy import sparse
 
@@ -170,7 +181,7 @@ class ClarabelBackend:
         self._settings = settings
         # per contact: its cone, its rows of b, and how its dual variables give the multiplier
         # (d||Py||/dy = (1/2) d||Py||^2/dy on the sphere; a slab's two sides add)
-        cones: list = []
+        cones: list[Any] = []  # Clarabel's cone objects
         b: list[float] = []
         weights: list[float] = []
         starts: list[int] = []
@@ -192,7 +203,7 @@ class ClarabelBackend:
         self._local = threading.local()  # a Clarabel solver may not be shared across threads
         self.setup_time = 0.0  # [s] building the solver for a new geometry in the last run
 
-    def run(self, problem: ReducedProblem):
+    def run(self, problem: ReducedProblem) -> BackendAnswer:
         """(y, multipliers, status, iterations).
 
         The cone data depend on the geometry only, so one Clarabel solver is kept per geometry
@@ -233,7 +244,7 @@ class ClarabelBackend:
             int(result.iterations),
         )
 
-    def _run_elastic(self, problem: ReducedProblem):
+    def _run_elastic(self, problem: ReducedProblem) -> BackendAnswer:
         """(y, multipliers, status, iterations) of the quadratic problem of a mechanism with
         stiffness: H changes with the load (it is the elastic energy over the load's scale), so
         the solver is built for each solve."""
@@ -262,7 +273,7 @@ class ClarabelBackend:
             int(result.iterations),
         )
 
-    def _offset_b(self, stack) -> np.ndarray:
+    def _offset_b(self, stack: StackedContacts) -> np.ndarray:
         """b with the eccentricities o: (1, o_j) for a cone, (1 - o_j, 1 + o_j) for a slab."""
         if not stack.offset.any():
             return self._b
@@ -277,7 +288,7 @@ class ClarabelBackend:
                 b[start + 1] += stack.offset[first]
         return b
 
-    def _cone_matrix(self, problem: ReducedProblem):
+    def _cone_matrix(self, problem: ReducedProblem) -> Any:  # a SciPy sparse matrix
         blocks = []
         for contact, matrix in zip(problem.contacts, problem.contact_matrices):
             if contact.contact.shape == "norm":
@@ -287,9 +298,17 @@ class ClarabelBackend:
         return self._sparse.csc_matrix(np.vstack(blocks))
 
 
+# a built backend, and what its run returns: (y, multipliers, status, iterations)
+Backend = IpoptBackend | ClarabelBackend
+
+
 def backend_for(
-    problem: ReducedProblem, backend: str, tol: float, signature, kept: dict
-) -> tuple[IpoptBackend | ClarabelBackend, bool]:
+    problem: ReducedProblem,
+    backend: str,
+    tol: float,
+    signature: Signature | None,
+    kept: MutableMapping[tuple[str, Signature, float], Backend],
+) -> tuple[Backend, bool]:
     """The built backend for this problem's ``signature`` (``problem.signature()`` when None),
     kept in ``kept`` (the mechanism's :attr:`~.cache.SolveCache.backends`), and whether it was
     built now."""
@@ -314,7 +333,7 @@ def acceptance(conditioning: float) -> float:
     return max(ACCEPT_KKT, 1e-16 / max(conditioning, 1e-300))
 
 
-def solve_cone(problem: ReducedProblem, backend) -> ConeSolution:
+def solve_cone(problem: ReducedProblem, backend: Backend) -> ConeSolution:
     """Solve ``problem`` by the backend from the nominal position, then the active-set Newton
     polish (the answer verified at round-off, or returned unpolished with its residuals)."""
     started = time.perf_counter()
@@ -362,7 +381,9 @@ def solve_cone(problem: ReducedProblem, backend) -> ConeSolution:
     )
 
 
-def _elastic_solution(problem, backend, accept, started):
+def _elastic_solution(
+    problem: ReducedProblem, backend: Backend, accept: float, started: float
+) -> ConeSolution:
     """The backend's answer of a problem with stiffness, polished by :mod:`.elastic_newton`
     (verified at round-off) or returned unpolished with its measured residuals; both on the
     problem rescaled by its curvature (:func:`.elastic_newton.curvature_scaled`), the residuals
@@ -372,6 +393,7 @@ def _elastic_solution(problem, backend, accept, started):
     setup_time = getattr(backend, "setup_time", 0.0)
     stack = problem.stack
     hessian = problem.hessian
+    assert hessian is not None  # a problem with stiffness (curvature_scaled keeps its H)
     verified = polish_elastic(stack, problem.objective, hessian, y, lam, accept)
     if verified is not None:
         y, lam, signs, measured = verified

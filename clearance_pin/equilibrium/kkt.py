@@ -22,7 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..numerics import null_space, row_spaces
+from ..numerics import Array, Index, Mask, null_space, row_spaces
 
 POLISH_TOL = 1e-14
 ACCEPT_KKT = 1e-12  # polished answers reach ~1e-15; a load component of 1e-10 must not pass
@@ -32,6 +32,12 @@ SUBSETS_KEPT = 64  # active sets whose rows are kept per geometry
 SUBSET_SIZE_KEPT = 200_000  # numbers in one kept set of rows (larger problems re-slice)
 ACTIVE_GAP = 1e-6
 NEARLY_TOUCHING = 1e-3  # a second try of an active set: every contact this close joins it
+
+# the rows of a set of contacts (StackedContacts.subset): P_A, the first row of each contact in
+# P_A, per row 1.0 (ball, disc) or 0.0 (slab), per row its index in the set, P_A R, R or None, o_A
+Subset = tuple[Array, Index, Array, Index, Array, Array | None, Array]
+# what Newton on a set returns: (y, multipliers of the set, their gradients G_A)
+NewtonAnswer = tuple[Array, Array, Array]
 
 
 class StackedContacts:
@@ -51,7 +57,7 @@ class StackedContacts:
         shapes: list[str],
         size: int,
         offsets: list[np.ndarray] | None = None,
-    ):
+    ) -> None:
         self.size = size
         self.count = len(matrices)
         self.matrix = np.vstack(matrices) if matrices else np.zeros((0, size))
@@ -66,12 +72,14 @@ class StackedContacts:
         self.is_norm = np.array([s == "norm" for s in shapes], dtype=bool)
         self.row_contact = np.repeat(np.arange(self.count), lengths)
         self.row_is_norm = self.is_norm[self.row_contact] if self.count else np.zeros(0, bool)
-        self._subsets: dict[tuple, tuple] = {}
+        # memoised rows of active sets and splits, SUBSETS_KEPT of both together
+        self._subsets: dict[tuple[bytes, bool], Subset] = {}
+        self._splits: dict[bytes, tuple[Array, Array]] = {}
         # active sets that needed the projected Newton; shared by the geometries of one structure
         # (set by the caller), since which motions a set of contacts sees is structural
         self.projection_hints: set[bytes] = set()
 
-    def subset(self, active: np.ndarray, projected: bool = False) -> tuple:
+    def subset(self, active: Index, projected: bool = False) -> Subset:
         r"""Rows of the contacts ``active`` (memoised when small): (P_A, first row of each contact
         in P_A, per row 1.0 for a ball or disc row and 0.0 for a slab row, per row its index in
         ``active``, P_A R, R, o_A). With ``projected``, R is the orthonormal basis (r, s) of the
@@ -101,23 +109,24 @@ class StackedContacts:
                 seen,
                 self.offset[rows],
             )
-            if len(self._subsets) < SUBSETS_KEPT and matrix.size <= SUBSET_SIZE_KEPT:
+            kept = len(self._subsets) + len(self._splits)
+            if kept < SUBSETS_KEPT and matrix.size <= SUBSET_SIZE_KEPT:
                 self._subsets[key] = cached
         return cached
 
-    def split(self, contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def split(self, contacts: Index) -> tuple[Array, Array]:
         r"""Orthonormal bases (r, s) and (r, r - s) of the motions the ``contacts`` see and of
         those they do not (:math:`P_j d = 0` for every j): along the latter neither the
         contacts' gradients nor the Hessian change, so the optimum is flat there (memoised)."""
-        key = ("split", contacts.tobytes())
-        cached = self._subsets.get(key)
+        key = contacts.tobytes()
+        cached = self._splits.get(key)
         if cached is None:
             cached = self._split(contacts)
-            if len(self._subsets) < SUBSETS_KEPT:
-                self._subsets[key] = cached
+            if len(self._subsets) + len(self._splits) < SUBSETS_KEPT:
+                self._splits[key] = cached
         return cached
 
-    def _split(self, contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _split(self, contacts: Index) -> tuple[Array, Array]:
         rows = self.matrix[np.isin(self.row_contact, contacts)]
         if not rows.size:
             return np.zeros((self.size, 0)), np.eye(self.size)
@@ -155,7 +164,7 @@ RESIDUAL_NAMES = ("stationarity", "feasibility", "complementarity", "dual_infeas
 """The columns of :func:`kkt_table`."""
 
 
-def kkt_table(stationarity: np.ndarray, phi: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
+def kkt_table(stationarity: Array, phi: Array, multipliers: Array) -> Array:
     r"""The KKT residuals of N answers (max norms, dimensionless), columns :data:`RESIDUAL_NAMES`:
     stationarity :math:`\lVert f + G^T \lambda \rVert_\infty` of the residual vectors
     ``stationarity`` (N, r), feasibility :math:`\max(\phi, 0)`, complementarity
@@ -174,17 +183,20 @@ def kkt_table(stationarity: np.ndarray, phi: np.ndarray, multipliers: np.ndarray
     )
 
 
-def kkt_passed(table: np.ndarray, phi: np.ndarray, multipliers: np.ndarray, accept) -> np.ndarray:
+def kkt_passed(table: Array, phi: Array, multipliers: Array, accept: float | Array) -> Mask:
     """Per answer (N,): its :func:`kkt_table` row within ``accept`` (a number or (N,)), no
     multiplier below -1e-12 and no contact outside its boundary by more than 1e-13."""
-    return (
+    passed: Mask = (
         (table.max(axis=1) <= accept)
         & (multipliers.min(axis=1, initial=0.0) >= -1e-12)
         & (phi.max(axis=1, initial=-1.0) <= 1e-13)
     )
+    return passed
 
 
-def residuals(stack: StackedContacts, objective, y, multipliers, signs) -> dict[str, float]:
+def residuals(
+    stack: StackedContacts, objective: Array, y: Array, multipliers: Array, signs: Array
+) -> dict[str, float]:
     """Measured KKT residuals of one answer (:func:`kkt_table`), by name."""
     values, gradients = stack.evaluate(y, signs)
     slab = ~stack.is_norm
@@ -195,15 +207,15 @@ def residuals(stack: StackedContacts, objective, y, multipliers, signs) -> dict[
 
 def newton(
     stack: StackedContacts,
-    objective,
-    y,
-    multipliers,
-    signs,
-    active,
+    objective: Array,
+    y: Array,
+    multipliers: Array,
+    signs: Array,
+    active: Index,
     iterations: int = 12,
     accept: float = ACCEPT_KKT,
     projected: bool = False,
-):
+) -> NewtonAnswer | None:
     r"""Newton on the KKT system of ``active``; returns (y, lambda_active, G_A) or None.
 
     When a step meets a singular KKT matrix, Newton starts again with ``projected``: the steps are
@@ -222,7 +234,7 @@ def newton(
         projected = True
     rows, starts, norm_rows, local, seen_rows, seen, offsets = stack.subset(active, projected)
 
-    def retry_projected():
+    def retry_projected() -> NewtonAnswer | None:
         return newton(
             stack, objective, y0, multipliers, signs, active, iterations, accept, projected=True
         )
@@ -288,7 +300,7 @@ def newton(
     return None
 
 
-def _lu_step(kkt: np.ndarray, residual: np.ndarray, squared: float):
+def _lu_step(kkt: Array, residual: Array, squared: float) -> Array | None:
     """Newton step :math:`K^{-1} r` (to subtract) by LU; None when K is singular (LU then fails
     or returns a huge, wrong step). ``squared``: r^T r."""
     step = _lu_solve(kkt, residual)
@@ -305,14 +317,14 @@ def _lu_step(kkt: np.ndarray, residual: np.ndarray, squared: float):
     return step if np.dot(error, error) <= 1e-18 * (1.0 + np.dot(residual, residual)) else None
 
 
-def _least_squares_step(kkt: np.ndarray, residual: np.ndarray):
+def _least_squares_step(kkt: Array, residual: Array) -> np.ndarray | None:
     """Minimum-norm least-squares Newton step for a singular KKT matrix (redundant contacts
     sharing the load: the multipliers are not unique)."""
     step = np.linalg.lstsq(kkt, residual, rcond=None)[0]
     return step if np.isfinite(step).all() else None
 
 
-def _numpy_lu_solve(matrix: np.ndarray, right: np.ndarray):
+def _numpy_lu_solve(matrix: Array, right: Array) -> np.ndarray | None:
     try:
         return np.linalg.solve(matrix, right)
     except np.linalg.LinAlgError:
@@ -320,7 +332,7 @@ def _numpy_lu_solve(matrix: np.ndarray, right: np.ndarray):
 
 
 @functools.cache
-def _lu_solver() -> Callable[[np.ndarray, np.ndarray], np.ndarray | None]:
+def _lu_solver() -> Callable[[Array, Array], Array | None]:
     """The LU solver of the Newton steps: SciPy's LAPACK dgesv when installed (the fast extra: a
     third of NumPy's wrapper's cost), chosen at the first step, not when clearance_pin is
     imported (SciPy's import costs about 0.1 s)."""
@@ -329,7 +341,7 @@ def _lu_solver() -> Callable[[np.ndarray, np.ndarray], np.ndarray | None]:
     except ImportError:  # pragma: no cover - depends on the installed extras
         return _numpy_lu_solve
 
-    def lapack_lu_solve(matrix: np.ndarray, right: np.ndarray) -> np.ndarray | None:
+    def lapack_lu_solve(matrix: Array, right: Array) -> Array | None:
         _, _, solution, info = dgesv(matrix, right)
         return solution if info == 0 else None
 
@@ -342,14 +354,14 @@ def _lu_solve(matrix: np.ndarray, right: np.ndarray) -> np.ndarray | None:
 
 def active_set_solve(
     stack: StackedContacts,
-    objective,
-    y,
-    multipliers,
-    signs=None,
+    objective: Array,
+    y: Array,
+    multipliers: Array,
+    signs: Array | None = None,
     rounds: int = 10,
     accept: float = ACCEPT_KKT,
     iterations: int = 12,
-):
+) -> tuple[Array, Array, Array, dict[str, float]] | None:
     """Verified active-set method from a guess (y, multipliers); None if it cannot be verified.
 
     The active set starts as the contacts in touch or carrying a multiplier. Each round solves its
@@ -437,7 +449,9 @@ def active_set_solve(
     return None
 
 
-def _contact_to_release(stack, objective, y, signs, active):
+def _contact_to_release(
+    stack: StackedContacts, objective: Array, y: Array, signs: Array, active: Index
+) -> int | None:
     """When Newton fails on an over-constrained set: the contact whose least-squares multiplier is
     most negative (it pulls), else the most open one if it is not quite touching; None if none."""
     if active.size <= 1:
@@ -450,7 +464,7 @@ def _contact_to_release(stack, objective, y, signs, active):
     return most_open if values[most_open] < -1e-14 else None
 
 
-def _minimum_norm_forces(gradients, objective, newton_multipliers):
+def _minimum_norm_forces(gradients: Array, objective: Array, newton_multipliers: Array) -> Array:
     """Contact multipliers at a solved y: Newton's when the active gradients ``gradients`` (a, r)
     are independent (the forces are unique); otherwise the minimum-norm set balancing the load
     when it is non-negative (statically indeterminate contacts share the load evenly)."""
@@ -459,11 +473,14 @@ def _minimum_norm_forces(gradients, objective, newton_multipliers):
         return np.maximum(newton_multipliers, 0.0)
     least = np.linalg.lstsq(gradients.T, -objective, rcond=None)[0]
     if np.all(least >= -1e-14):
-        return np.maximum(least, 0.0)
+        shared: Array = np.maximum(least, 0.0)  # (NumPy's stubs: Any)
+        return shared
     return np.maximum(newton_multipliers, 0.0)
 
 
-def _step_to_next_contact(stack: StackedContacts, objective, y, signs, active):
+def _step_to_next_contact(
+    stack: StackedContacts, objective: Array, y: Array, signs: Array, active: Index
+) -> tuple[Array, int] | None:
     """Move along the load's unbalanced part, tangent to the active contacts, to the next contact.
 
     Returns (new y, index of the contact reached) or None when no contact bounds that motion.
@@ -479,7 +496,9 @@ def _step_to_next_contact(stack: StackedContacts, objective, y, signs, active):
     return y + best * direction, reached
 
 
-def _first_contact_along(stack: StackedContacts, y, direction, active, limit: float):
+def _first_contact_along(
+    stack: StackedContacts, y: Array, direction: Array, active: Index, limit: float
+) -> tuple[float, int | None]:
     """(t, j): the first contact j outside ``active`` that y + t direction meets, 0 <= t <
     ``limit`` (ball, disc: the larger root of |image + t moved|^2 = 1; slab: its side's plane);
     (inf, None) when none does."""
@@ -489,9 +508,9 @@ def _first_contact_along(stack: StackedContacts, y, direction, active, limit: fl
     for j in np.setdiff1d(np.arange(stack.count), active):
         rows = slice(stack.starts[j], stack.starts[j + 1] if j + 1 < stack.count else None)
         if stack.is_norm[j]:
-            a = image_d[rows] @ image_d[rows]
-            b = image[rows] @ image_d[rows]
-            c = image[rows] @ image[rows] - 1.0
+            a = float(image_d[rows] @ image_d[rows])
+            b = float(image[rows] @ image_d[rows])
+            c = float(image[rows] @ image[rows] - 1.0)
             if a <= 0.0:
                 continue
             t = (-b + np.sqrt(max(b * b - a * c, 0.0))) / a

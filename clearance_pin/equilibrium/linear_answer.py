@@ -12,15 +12,29 @@ their forces (:mod:`.contact_split`), whichever engine found the optimum.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+from ..numerics import Array, Mask
 from .contact_split import least_norm_split
 from .frozen import FieldTemplate
 from .lazy import LazyMapping, LazySequence, placements
+from .method import Method
 from .prepared import PreparedGeometry
 from .reduction import ReducedProblem
 from .residuals import Residuals
-from .result import Contact, Equilibrium
+from .result import Contact, Equilibrium, Status
+
+if TYPE_CHECKING:
+    from ..model.loads import Load
+    from .outputs import OutputPoint
+
+# how a solve ended: (status, the Method that answered, solver status, iterations, polished)
+Outcome = tuple[Status, Method, str, int, bool]
+# a solution's contacts: (gaps [m], stacked force rows [N], multipliers)
+ContactArrays = tuple[Array, Array, Array]
 
 ACTIVE_RELATIVE_GAP = 1e-7  # of the play: a contact closer than this touches
 
@@ -28,26 +42,26 @@ ACTIVE_RELATIVE_GAP = 1e-7  # of the play: a contact closer than this touches
 def assemble_linear(
     prepared: PreparedGeometry,
     problem: ReducedProblem,
-    y,
-    multipliers,
-    signs,
-    status,
-    method,
-    solver_status,
-    iterations,
-    polished,
-    build_time,
-    solve_time,
-    residuals,
-    loads: tuple,
-    flat_notes=(),
-    output_points: tuple = (),
+    y: Array,
+    multipliers: Array,
+    signs: Array,
+    status: Status,
+    method: Method,
+    solver_status: str,
+    iterations: int,
+    polished: bool,
+    build_time: float,
+    solve_time: float,
+    residuals: dict[str, float],
+    loads: Sequence[Load],
+    flat_notes: Sequence[str] = (),
+    output_points: tuple[OutputPoint, ...] = (),
 ) -> Equilibrium:
     """The answer of the reduced solution (y, multipliers, slab sides ``signs``) for ``loads``,
     with the solver's KKT ``residuals`` and the ones measured here (module docstring)."""
     x = prepared.x_from_y @ y
     gaps, force_rows = prepared.contact_state(x, multipliers, signs, problem.objective_scale)
-    outcome = (status, method, solver_status, iterations, polished)
+    outcome: Outcome = (status, method, solver_status, iterations, polished)
     return answer_of_x(prepared, problem, x, (gaps, force_rows, multipliers), outcome,
                        (build_time, solve_time), residuals, loads, flat_notes, output_points)  # fmt: skip
 
@@ -55,14 +69,14 @@ def assemble_linear(
 def answer_of_x(
     prepared: PreparedGeometry,
     problem: ReducedProblem,
-    x: np.ndarray,
-    contacts: tuple,
-    outcome: tuple,
+    x: Array,
+    contacts: ContactArrays,
+    outcome: Outcome,
     times: tuple[float, float],
-    residuals,
-    loads: tuple,
-    flat_notes=(),
-    output_points: tuple = (),
+    residuals: dict[str, float],
+    loads: Sequence[Load],
+    flat_notes: Sequence[str] = (),
+    output_points: tuple[OutputPoint, ...] = (),
 ) -> Equilibrium:
     """The answer of the unknowns x (n,) with its ``contacts`` = (gaps [m], stacked force rows
     [N], multipliers) (:meth:`.prepared.PreparedGeometry.contact_state`), ``outcome`` and
@@ -116,11 +130,11 @@ def linear_equilibrium(
     multipliers: np.ndarray,
     measured: Residuals,
     energy: float,
-    outcome: tuple,
+    outcome: Outcome,
     times: tuple[float, float],
-    free_motions,
-    loads: tuple,
-    output_points: tuple = (),
+    free_motions: Sequence[str],
+    loads: Sequence[Load],
+    output_points: tuple[OutputPoint, ...] = (),
     x: np.ndarray | None = None,
 ) -> Equilibrium:
     """The :class:`~.result.Equilibrium` of computed answer arrays: joint torsors (joints, 6)
@@ -132,12 +146,13 @@ def linear_equilibrium(
     statically indeterminate contacts split by least norm (:func:`split_force_rows`)."""
     mechanism = prepared.mechanism
     owner = getattr(prepared, "nominal", prepared)  # the points of a trajectory share one
-    template = owner.__dict__.get("_answer_template")
+    template: FieldTemplate | None = owner.__dict__.get("_answer_template")
     if template is None:
         template = owner.__dict__["_answer_template"] = FieldTemplate(
             Equilibrium, {"formulation": "linear", "mechanism": mechanism}
         )
-    equilibrium, state = template.new()
+    answer, state = template.new()
+    equilibrium: Equilibrium = answer  # (FieldTemplate.new: an instance of its class)
     state["configuration"] = prepared.configuration
     (state["status"], state["method"], state["solver_status"], state["iterations"],
      state["polished"]) = outcome  # fmt: skip
@@ -159,7 +174,9 @@ def linear_equilibrium(
     return equilibrium
 
 
-def _contacts(prepared: PreparedGeometry, gaps, force_rows, multipliers, x) -> tuple[Contact, ...]:
+def _contacts(
+    prepared: PreparedGeometry, gaps: Array, force_rows: Array, multipliers: Array, x: Array | None
+) -> tuple[Contact, ...]:
     """Every contact point with its gap, force (:func:`split_force_rows`) and whether it
     touches (gap within 1e-7 of the play, or 1e-6 while it carries a force)."""
     bounds = prepared.bounds
@@ -187,7 +204,9 @@ def _contacts(prepared: PreparedGeometry, gaps, force_rows, multipliers, x) -> t
     )
 
 
-def split_force_rows(prepared: PreparedGeometry, x, force_rows, active) -> np.ndarray:
+def split_force_rows(
+    prepared: PreparedGeometry, x: Array, force_rows: Array, active: Mask
+) -> Array:
     r"""The stacked force rows [N] with the forces of the touching contacts (``active``, (m,))
     split by least norm (:func:`.contact_split.least_norm_split`); ``force_rows`` itself when the
     split is unique.

@@ -29,8 +29,7 @@ from typing import TYPE_CHECKING, overload
 import numpy as np
 
 from ..model.loads import Gravity, PointForce, Torque, with_vector
-from ..numerics import cross
-from .blocks import Array, Index, Mask
+from ..numerics import Array, Index, Mask, cross
 
 if TYPE_CHECKING:
     from ..model.mechanism_parts import MechanismParts as Mechanism

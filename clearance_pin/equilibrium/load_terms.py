@@ -13,14 +13,37 @@ equal to :math:`C\cdot\Theta` up to third order). Per body this is a linear form
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Protocol, TypedDict
 
 import numpy as np
 import pinocchio as pin
 
 from ..errors import LoadError
 from ..model.loads import Gravity, Load, PointForce, Torque
-from ..numerics import cross
+from ..numerics import Array, cross
+
+# a loaded link: (body, R, t of the link frame in the body, R, t of the body in the world)
+LinkPlacement = tuple[int, Array, Array, Array, Array]
+# a body with mass: (body, mass [kg], centre of mass in the body [m], R, t of the body)
+BodyMass = tuple[int, float, Array, Array, Array]
+
+
+class Placed(Protocol):
+    """Anything with ``oMi``, the world placement of every joint frame (a
+    :class:`~clearance_pin.mechanism.Configuration`, a placed ``pin.Data``)."""
+
+    @property
+    def oMi(self) -> Sequence[pin.SE3]: ...
+
+
+class PlacementMemo(TypedDict, total=False):
+    """What :func:`gather_body_loads` keeps for one configuration: the placements of the loaded
+    links (link name -> placement, None on the ground) and the bodies with mass."""
+
+    links: dict[str, LinkPlacement | None]
+    masses: list[BodyMass]
 
 
 @dataclass(frozen=True)
@@ -43,10 +66,10 @@ class BodyLoad:
 
 def gather_body_loads(
     model: pin.Model,
-    placed,
-    loads: tuple[Load, ...],
-    link_frames: dict[str, int],
-    memo: dict | None = None,
+    placed: Placed,
+    loads: Sequence[Load],
+    link_frames: Mapping[str, int],
+    memo: PlacementMemo | None = None,
 ) -> dict[int, BodyLoad]:
     """Gather loads per body at a configuration: the one gathering of loads of both models.
 
@@ -57,7 +80,7 @@ def gather_body_loads(
         memo: a dict kept by the caller for one configuration (the placements of the loaded
             links and of the bodies' centres of mass are read from it after the first call).
     """
-    memo = {} if memo is None else memo
+    memo = PlacementMemo() if memo is None else memo
     acc: dict[int, list[np.ndarray]] = {}
 
     def entry(body: int) -> list[np.ndarray]:
@@ -85,17 +108,23 @@ def gather_body_loads(
     return {body: BodyLoad(body, f, g, c, w) for body, (f, g, c, w) in acc.items()}
 
 
-def _link(model, placed, link: str, link_frames: dict[str, int], memo: dict):
+def _link(
+    model: pin.Model,
+    placed: Placed,
+    link: str,
+    link_frames: Mapping[str, int],
+    memo: PlacementMemo,
+) -> LinkPlacement | None:
     """(body, R, t of the link frame in the body, R, t of the body in the world), None on the
     ground; memoised."""
-    key = ("link", link)
-    if key not in memo:
+    links = memo.setdefault("links", {})
+    if link not in links:
         if link not in link_frames:
             known = ", ".join(sorted(link_frames))
             raise LoadError(f"on {link!r}", f"unknown link; the model's links are: {known}")
         frame = model.frames[link_frames[link]]
         body = frame.parentJoint
-        memo[key] = (
+        links[link] = (
             None
             if body == 0
             else (
@@ -106,10 +135,10 @@ def _link(model, placed, link: str, link_frames: dict[str, int], memo: dict):
                 placed.oMi[body].translation.copy(),
             )
         )
-    return memo[key]
+    return links[link]
 
 
-def _masses(model, placed, memo: dict) -> list:
+def _masses(model: pin.Model, placed: Placed, memo: PlacementMemo) -> list[BodyMass]:
     """(body, mass [kg], centre of mass in the body [m], R, t of the body) of every body with
     mass; memoised."""
     if "masses" not in memo:

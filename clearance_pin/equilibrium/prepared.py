@@ -19,29 +19,36 @@ from __future__ import annotations
 import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, overload
 
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from ..model.couplings import passive
 from ..model.loads import Gravity
-from ..numerics import column_space, null_space
-from .cache import GRAVITIES_KEPT, LeastRecentlyUsed
+from ..numerics import Array, Mask, column_space, null_space
+from .cache import GRAVITIES_KEPT, LeastRecentlyUsed, SolveCache
 from .kkt import UNLOADED
 from .lazy import LazySequence
-from .load_terms import gather_body_loads
+from .load_terms import BodyLoad, PlacementMemo, gather_body_loads
 from .reduction import (
     ROUND_OFF_WORK,
     UNBOUNDED_FRACTION,
     ReducedGeometry,
     ReducedProblem,
+    Signature,
     describe_motion,
     reduce_geometry,
     with_scaled_load,
 )
 from .small_displacement import SmallDisplacementMaps, build_maps
 from .tree_point import body_motions
+
+if TYPE_CHECKING:  # the mechanism module imports this one
+    from ..model.loads import Load
+    from ..model.mechanism_parts import ConfigurationParts as Configuration
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 
 class PreparedGeometry:
@@ -55,8 +62,12 @@ class PreparedGeometry:
     """
 
     def __init__(
-        self, mechanism, configuration, maps: SmallDisplacementMaps, geometry: ReducedGeometry
-    ):
+        self,
+        mechanism: Mechanism,
+        configuration: Configuration,
+        maps: SmallDisplacementMaps,
+        geometry: ReducedGeometry,
+    ) -> None:
         self.mechanism = mechanism
         self.configuration = configuration
         self.maps = maps
@@ -80,14 +91,14 @@ class PreparedGeometry:
         }
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
-        self._placements: dict = {}  # loaded links and masses at this configuration (load_terms)
+        self._placements = PlacementMemo()  # loaded links and masses at this configuration
         # per acceleration at this q: the few most recent (a tilting base gives a new one per solve)
         self._gravity_wrenches: LeastRecentlyUsed[bytes, np.ndarray] = LeastRecentlyUsed(
             GRAVITIES_KEPT
         )
 
     @property
-    def signature(self) -> tuple:
+    def signature(self) -> Signature:
         """Sizes and contact shapes: what a built optimiser depends on."""
         return self.terms.signature
 
@@ -112,7 +123,7 @@ class PreparedGeometry:
         return self.terms.joint_names
 
     # -- loads ---------------------------------------------------------------------------------
-    def wrenches(self, loads) -> np.ndarray:
+    def wrenches(self, loads: Sequence[Load]) -> Array:
         """Body wrenches at the world origin (bodies, 6) [N, N m] of ``loads`` (ground excluded),
         from the one gathering of loads per body (:func:`~.load_terms.gather_body_loads`); a
         gravity's, the same at this configuration for every solve, gathered once per
@@ -130,7 +141,7 @@ class PreparedGeometry:
                     wrench += weights
         return wrench
 
-    def _gathered(self, loads) -> np.ndarray:
+    def _gathered(self, loads: Sequence[Load]) -> Array:
         wrench = np.zeros((self.bodies, 6))
         if not loads:
             return wrench
@@ -140,7 +151,7 @@ class PreparedGeometry:
             wrench[body] = load.wrench
         return wrench
 
-    def problem(self, loads: Any) -> ReducedProblem:
+    def problem(self, loads: Sequence[Load]) -> ReducedProblem:
         """The reduced problem of ``loads`` (raises UnboundedLoadError, see
         :func:`~.reduction.with_scaled_load`)."""
         wrench = self.wrenches(loads)
@@ -159,7 +170,7 @@ class PreparedGeometry:
             size,
         )
 
-    def objectives(self, wrenches: np.ndarray):
+    def objectives(self, wrenches: Array) -> tuple[Array, Array, Array, Array, Array, Mask]:
         """The objectives of many loads at once, from their stacked body wrenches (N, 6 bodies).
 
         Returns:
@@ -195,15 +206,17 @@ class PreparedGeometry:
         return objectives, sigmas, gradients, load_sizes, shares, regular
 
     # -- answer --------------------------------------------------------------------------------
-    def torsor_array(self, x: np.ndarray) -> np.ndarray:
+    def torsor_array(self, x: np.ndarray) -> Array:
         """Torsor (6,) [m, rad] of every joint of ``joint_names`` for the unknowns x, (joints, 6)."""
-        return (self._torsor_rows @ x).reshape(-1, 6)
+        torsors: Array = (self._torsor_rows @ x).reshape(-1, 6)  # (NumPy's stubs: Any)
+        return torsors
 
-    def body_twists(self, x: np.ndarray) -> np.ndarray:
+    def body_twists(self, x: np.ndarray) -> Array:
         """Spatial twist (v, omega) at the world origin of every body, (bodies, 6)."""
-        return (self._twist_rows @ x).reshape(self.bodies, 6)
+        twists: Array = (self._twist_rows @ x).reshape(self.bodies, 6)  # (NumPy's stubs: Any)
+        return twists
 
-    def body_motions(self, twists: np.ndarray, names) -> dict:
+    def body_motions(self, twists: np.ndarray, names: Any) -> dict[str, Any]:
         """Body name -> (translation of its frame origin [m], rotation [rad]), world axes."""
         return body_motions(twists, self._origins, names)
 
@@ -211,7 +224,9 @@ class PreparedGeometry:
         """Joint name -> clearance frame placement oM_c in the world at this configuration."""
         return self.maps.joint_centre
 
-    def contact_state(self, x: np.ndarray, multipliers, signs, objective_scale):
+    def contact_state(
+        self, x: Array, multipliers: Array, signs: Array, objective_scale: float | Array
+    ) -> tuple[Array, Array]:
         r"""Gap of every contact [m], and the contact forces [N] (clearance frame) as rows stacked
         like the contact rows; for one solution (x (n,), multipliers (m,), sigma) or many
         (x (N, n), multipliers (N, m), sigma (N, 1)).
@@ -230,9 +245,27 @@ class PreparedGeometry:
         )
         return gaps, forces
 
+    @overload
     def statics_residual(
-        self, gradient: np.ndarray, forces: np.ndarray, load_size=0.0, springs=None
-    ):
+        self,
+        gradient: Array,
+        forces: Array,
+        load_size: float = 0.0,
+        springs: Array | None = None,
+    ) -> float: ...
+
+    @overload
+    def statics_residual(
+        self, gradient: Array, forces: Array, load_size: Array, springs: Array | None = None
+    ) -> Array: ...
+
+    def statics_residual(
+        self,
+        gradient: Array,
+        forces: Array,
+        load_size: float | Array = 0.0,
+        springs: Array | None = None,
+    ) -> float | Array:
         r"""Relative statics residual :math:`\|P_\perp W (g + K x - \sum_j S_j^T f_j)\| /
         \max(\|W g\|, s)`, for one load (g (n,), forces (k,)) or many ((N, n), (N, k),
         load_size s (N,)); ``springs``: the spring forces K x of the elastic unknowns [N or
@@ -267,7 +300,7 @@ class PreparedGeometry:
         return out.reshape(-1, 3)
 
     def flat_directions(
-        self, y, multipliers, signs, hessian: np.ndarray | None = None
+        self, y: Array, multipliers: Array, signs: Array, hessian: np.ndarray | None = None
     ) -> tuple[np.ndarray, Sequence[str]]:
         r"""Directions (r, k) along which the optimum at (y, multipliers) is not unique, with
         their descriptions.
@@ -340,7 +373,7 @@ class GeometryTerms:
             rotation (:meth:`PreparedGeometry.statics_residual`: forces and moments in N alike).
     """
 
-    signature: tuple
+    signature: Signature
     size_x: int
     split: tuple[int, int]
     play: float
@@ -360,9 +393,9 @@ class GeometryTerms:
     statics_weights: np.ndarray
 
 
-def geometry_terms(mechanism, geometry: ReducedGeometry) -> GeometryTerms:
+def geometry_terms(mechanism: Mechanism, geometry: ReducedGeometry) -> GeometryTerms:
     """The :class:`GeometryTerms` of ``geometry``, from the mechanism's cache or built now."""
-    cache = mechanism.cache
+    cache: SolveCache = mechanism.cache
     cached = cache.geometry_terms.get(id(geometry))
     if cached is not None and cached[0] is geometry:
         return cached[1]
@@ -413,7 +446,7 @@ def geometry_terms(mechanism, geometry: ReducedGeometry) -> GeometryTerms:
     return terms
 
 
-def statics_weights(scale: np.ndarray, translational, length: float) -> np.ndarray:
+def statics_weights(scale: np.ndarray, translational: Mask | None, length: float) -> Array:
     """W (n,) of :meth:`PreparedGeometry.statics_residual`: per unknown, c for a translation,
     c / L for a rotation (c: the median of the clearance scales ``scale``, the play scale of the
     load size; 1 without unknowns), ``translational`` (n,) bool (None: all translations)."""
@@ -424,11 +457,11 @@ def statics_weights(scale: np.ndarray, translational, length: float) -> np.ndarr
     return np.where(translational, c, c / max(length, 1e-300))
 
 
-def prepared_geometry(mechanism, q=None) -> PreparedGeometry:
+def prepared_geometry(mechanism: Mechanism, q: npt.ArrayLike | None = None) -> PreparedGeometry:
     """The mechanism prepared at ``q`` (default: nominal), kept in its cache per configuration:
     closing the loops, the maps and the reduction are done once, so a new load costs a few array
     products."""
-    cache = mechanism.cache
+    cache: SolveCache = mechanism.cache
     key = None if q is None else np.asarray(q, dtype=float).tobytes()
     prepared = cache.geometry(key)
     if prepared is None:
@@ -449,14 +482,14 @@ def prepared_geometry(mechanism, q=None) -> PreparedGeometry:
     return prepared
 
 
-def _reduced(mechanism, maps: SmallDisplacementMaps) -> ReducedGeometry:
+def _reduced(mechanism: Mechanism, maps: SmallDisplacementMaps) -> ReducedGeometry:
     """The reduction at the configuration of ``maps``; without loop joints it is the same at every
     configuration (the unknowns are the joints' own torsors and each contact reads its own joint's
     torsor, so no constraint depends on where the parts are), so it is done once."""
     couplings = passive(mechanism.couplings, mechanism.joints)
     if mechanism.loop_joints:
         return reduce_geometry(maps, mechanism.joints, mechanism.length_scale(), couplings)
-    cache = mechanism.cache
+    cache: SolveCache = mechanism.cache
     if cache.tree_geometry is None:
         cache.tree_geometry = reduce_geometry(
             maps, mechanism.joints, mechanism.length_scale(), couplings
@@ -464,7 +497,9 @@ def _reduced(mechanism, maps: SmallDisplacementMaps) -> ReducedGeometry:
     return cache.tree_geometry
 
 
-def linear_setup(mechanism, loads, q):
+def linear_setup(
+    mechanism: Mechanism, loads: Sequence[Load], q: npt.ArrayLike | None
+) -> tuple[Configuration, SmallDisplacementMaps, dict[int, BodyLoad], ReducedProblem]:
     """Configuration, maps, per-body loads (with the exact model's terms) and reduced problem."""
     prepared = prepared_geometry(mechanism, q)
     configuration = prepared.configuration

@@ -47,20 +47,33 @@ Where the wrenches act:
 
 from __future__ import annotations
 
+from collections.abc import Sequence, Set
 from dataclasses import dataclass
 from types import SimpleNamespace
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.clearance import ALPHA, BETA, GAMMA
-from ..model.couplings import passive
+from ..model.couplings import coupled_joint, passive
+from ..model.joints import LoopJoint, TreeJoint
 from ..model.stiffness import elastic
-from ..numerics import null_space
+from ..numerics import Array, null_space
 from .load_terms import gather_body_loads
-from .poses import clearance_frames
+from .poses import ClearanceFrames, clearance_frames
 from .small_displacement import tree_joint_basis
+
+if TYPE_CHECKING:  # result.py imports this module
+    from ..model.loads import Load
+    from ..model.mechanism_parts import ConfigurationParts as Configuration
+    from ..model.mechanism_parts import MechanismParts as Mechanism
+    from .result import Equilibrium
+
+# a joint's generators of reactions: (part, local wrenches (6, k), placement of their frame)
+Generator = tuple[str, Array, pin.SE3]
 
 FRAMES = ("joint", "world")
 PARTS = ("rigid", "drive", "held")  # the parts recovered from the statics
@@ -116,7 +129,7 @@ class Reaction:
         ``LOCAL`` of that frame) or the world (``"world"``, Pinocchio's ``WORLD``)."""
         return pin.Force(self.force, self.moment)
 
-    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+    def __array__(self, dtype: npt.DTypeLike | None = None, copy: bool | None = None) -> np.ndarray:
         """``np.asarray(reaction)``: the wrench (force, moment) (6,)."""
         return self.wrench if dtype is None else self.wrench.astype(dtype)
 
@@ -132,11 +145,11 @@ class JointReactions:
         residual: relative residual of the per-body least squares (see the module docstring).
     """
 
-    contact: dict
-    rigid: dict
-    drive: dict
-    held: dict
-    joint_frames: dict
+    contact: dict[str, Array]
+    rigid: dict[str, Array]
+    drive: dict[str, Array]
+    held: dict[str, Array]
+    joint_frames: dict[str, pin.SE3]
     residual: float
 
     def reaction(self, joint: str, frame: str = "joint") -> Reaction:
@@ -158,17 +171,17 @@ class JointReactions:
         )
 
 
-def joint_reactions(equilibrium) -> JointReactions:
+def joint_reactions(equilibrium: Equilibrium) -> JointReactions:
     """Recover every joint's reaction of ``equilibrium`` (see the module docstring)."""
     if equilibrium.loads is None:
         raise ClearancePinError(
             "this equilibrium does not carry the loads it was solved for (Equilibrium.loads), so "
             "its joint reactions cannot be recovered; solve it with Mechanism.solve"
         )
-    mechanism = equilibrium.mechanism
+    mechanism = cast("Mechanism", equilibrium.mechanism)
     model = mechanism.model
     exact = equilibrium.formulation == "exact" and equilibrium.status != "indeterminate"
-    nominal = equilibrium.configuration
+    nominal = cast("Configuration", equilibrium.configuration)
     placements = tuple(equilibrium.body_placements) if exact else nominal.oMi
     frames = frames_at(mechanism, nominal, placements)
     length = mechanism.length_scale()
@@ -183,12 +196,18 @@ def joint_reactions(equilibrium) -> JointReactions:
     }
     contact = {name: np.zeros(6) for name in mechanism.joints}
     for c in equilibrium.contacts:
-        moment = np.cross(c.position, c.force) if c.moment is None else c.moment
+        if c.moment is not None:
+            moment = c.moment
+        elif c.position is not None:
+            moment = np.cross(c.position, c.force)
+        else:  # the solvers give every contact its position
+            raise ClearancePinError(f"contact {c.label} has no position: its moment is unknown")
         local = pin.Force(c.force, moment)
         contact[c.joint] += joint_frames[c.joint].act(local).vector
 
-    columns, owners = [], []  # generator wrenches at the world origin, (joint, part) of each
-    locals_ = []  # and in the joint's own frame
+    columns: list[Array] = []  # generator wrenches at the world origin
+    owners: list[tuple[str, str]] = []  # (joint, part) of each
+    locals_: list[Array] = []  # and in the joint's own frame
     held = exact and equilibrium.residuals.get("held_by_gauge", 0.0) > 0.0
     couplings = passive(getattr(mechanism, "couplings", ()), mechanism.joints)
     tied = {name for c in couplings for name in (c.follower, c.leader)}  # the coupling holds
@@ -202,7 +221,7 @@ def joint_reactions(equilibrium) -> JointReactions:
     # a passive coupling's reaction: mu about the follower's axis, -m mu about the leader's
     paired = [
         tuple(
-            (name, sign * _motion_wrench(mechanism.joints[name], frames[name]))
+            (name, sign * _motion_wrench(coupled_joint(mechanism.joints, name), frames[name]))
             for name, sign in ((c.follower, 1.0), (c.leader, -c.multiplier))
         )
         for c in couplings
@@ -262,19 +281,28 @@ def joint_reactions(equilibrium) -> JointReactions:
     )
 
 
-def _motion_wrench(joint, frames) -> np.ndarray:
+def _motion_wrench(joint: TreeJoint, frames: ClearanceFrames) -> Array:
     """A unit torque (force) on a tree joint's child about (along) its axis, at the world
     origin (the clearance frame's x is the joint axis)."""
-    return frames.child.act(pin.Force(np.eye(6)[joint.motion_component])).vector
+    wrench: Array = frames.child.act(pin.Force(np.eye(6)[joint.motion_component])).vector
+    return wrench
 
 
-def _spring_equations(mechanism, equilibrium, joint_frames, contact, owners, locals_):
+def _spring_equations(
+    mechanism: Mechanism,
+    equilibrium: Equilibrium,
+    joint_frames: dict[str, pin.SE3],
+    contact: dict[str, Array],
+    owners: list[tuple[str, str]],
+    locals_: list[Array],
+) -> tuple[Array, Array] | None:
     r"""The equations a joint's stiffness adds, (C (k, columns), d (k,)) or None: along its
     directions that deflect (D, clearance frame) the joint transmits its spring's wrench,
     :math:`D^T (W_{contact} + \sum_c \mu_c g_c) = D^T (-K e)` (the spring is in series with the
     play, e its deflection), which decides the split of a hyperstatic mechanism's rigid
     reactions where the least norm would not."""
-    rows, values = [], []
+    rows: list[Array] = []
+    values: list[Array] = []
     for name, joint in mechanism.joints.items():
         deflection = (equilibrium.deflections or {}).get(name)
         if deflection is None:
@@ -293,7 +321,9 @@ def _spring_equations(mechanism, equilibrium, joint_frames, contact, owners, loc
     return np.vstack(rows), np.concatenate(values)
 
 
-def _least_squares(matrix, right, springs, sizes) -> np.ndarray:
+def _least_squares(
+    matrix: Array, right: Array, springs: tuple[Array, Array] | None, sizes: Array
+) -> np.ndarray:
     """The minimum-norm least-squares solution of ``matrix`` u = ``right`` (u: the generators'
     values times ``sizes``), subject to the springs' equations (C, d) on the values when given:
     the particular solution of C, then the least squares over C's null space."""
@@ -309,7 +339,11 @@ def _least_squares(matrix, right, springs, sizes) -> np.ndarray:
     return particular + free @ rest
 
 
-def frames_at(mechanism, configuration, placements) -> dict:
+def frames_at(
+    mechanism: Mechanism,
+    configuration: Configuration,
+    placements: Sequence[pin.SE3 | Array],
+) -> dict[str, ClearanceFrames]:
     """:func:`~.poses.clearance_frames` of every joint for body placements given as pin.SE3 or
     (3, 4) [R | t] arrays (index = Pinocchio joint id, 0 = ground), before an Equilibrium exists."""
     placed = tuple(
@@ -321,7 +355,13 @@ def frames_at(mechanism, configuration, placements) -> dict:
     )
 
 
-def _body_wrenches(mechanism, loads, placements, nominal_oMi, exact: bool) -> dict[int, np.ndarray]:
+def _body_wrenches(
+    mechanism: Mechanism,
+    loads: Sequence[Load],
+    placements: Sequence[pin.SE3],
+    nominal_oMi: Sequence[pin.SE3],
+    exact: bool,
+) -> dict[int, Array]:
     """Per body, its loads as one wrench (force [N], moment about the world origin [N m]) at the
     pose ``placements``: dead loads at their moved points, and for the exact model the moment
     :math:`\\tfrac12 (\\mathrm{tr}(A) I - A^T) C` of a torque (module docstring)."""
@@ -338,16 +378,24 @@ def _body_wrenches(mechanism, loads, placements, nominal_oMi, exact: bool) -> di
     return wrenches
 
 
-def _generators(joint, frames, exact: bool, held: bool = False, tied=frozenset()):
+def _generators(
+    joint: TreeJoint | LoopJoint,
+    frames: ClearanceFrames,
+    exact: bool,
+    held: bool = False,
+    tied: Set[str] = frozenset(),
+) -> list[Generator]:
     """(part, local wrenches (6, k), placement of the frame they are written in) of a joint's
     rigid directions and drive, and with ``held`` of its own free motions (module docstring)
     but the motion of a joint a passive coupling ties (``tied``: the coupling holds it)."""
-    if hasattr(joint, "joint_id"):
+    if isinstance(joint, TreeJoint):
         return _tree_generators(joint, frames, exact, held, joint.name in tied)
     return _loop_generators(joint, frames, exact)
 
 
-def _tree_generators(joint, frames, exact: bool, held: bool = False, tied: bool = False):
+def _tree_generators(
+    joint: TreeJoint, frames: ClearanceFrames, exact: bool, held: bool = False, tied: bool = False
+) -> list[Generator]:
     basis = tree_joint_basis(joint)
     drive = []
     for component in joint.locked_components:
@@ -368,7 +416,7 @@ def _tree_generators(joint, frames, exact: bool, held: bool = False, tied: bool 
     return generators
 
 
-def _loop_generators(loop, frames, exact: bool):
+def _loop_generators(loop: LoopJoint, frames: ClearanceFrames, exact: bool) -> list[Generator]:
     clearance = loop.clearance
     rigid = list(clearance.rigid_components)
     fixed_points = [p for p in clearance.contacts if p.bound == 0.0]

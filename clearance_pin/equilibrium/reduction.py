@@ -32,7 +32,7 @@ objective becomes :math:`f^T y + \tfrac12 y^T H y` with
 from __future__ import annotations
 
 import statistics
-from collections.abc import Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,11 +40,18 @@ import numpy as np
 from ..errors import UnboundedLoadError
 from ..kinematics.loop_frames import nominal_offsets
 from ..model.clearance import COMPONENT_MEANING, COMPONENT_NAMES, ContactPoint
-from ..model.couplings import Coupling
-from ..numerics import norm, row_spaces
+from ..model.couplings import Coupling, coupled_joint
+from ..model.joints import LoopJoint, TreeJoint
+from ..numerics import Array, Index, Mask, norm, row_spaces
 from .kkt import StackedContacts
 from .lazy import LazySequence
 from .small_displacement import SmallDisplacementMaps
+
+# what a built solver depends on: (reduced unknowns r, per contact (shape, rows)[, True when the
+# objective is quadratic])
+Signature = tuple[int, tuple[tuple[str, int], ...]] | tuple[int, tuple[tuple[str, int], ...], bool]
+# joint name -> TreeJoint or LoopJoint (tree joints first, in tree order)
+Joints = Mapping[str, TreeJoint | LoopJoint]
 
 UNBOUNDED_FRACTION = 1e-9
 ROUND_OFF_WORK = 1e-12  # working part of a load below this share of the load is round-off
@@ -104,7 +111,7 @@ class ReducedProblem:
     contacts: tuple[ContactConstraint, ...]
     equalities: np.ndarray
     free_motions: np.ndarray
-    free_descriptions: Sequence[str]
+    free_descriptions: LazySequence[str]
     objective: np.ndarray
     objective_scale: float
     contact_matrices: tuple[np.ndarray, ...]
@@ -118,13 +125,14 @@ class ReducedProblem:
     @property
     def size(self) -> int:
         """Number of reduced unknowns r."""
-        return self.basis.shape[1]
+        return int(self.basis.shape[1])
 
     def x_from_y(self, y: np.ndarray) -> np.ndarray:
         """Unknowns x (joint torsor coordinates, SI) from reduced ones y."""
-        return self.scale * (self.basis @ y)
+        x: Array = self.scale * (self.basis @ y)  # (NumPy's stubs: Any)
+        return x
 
-    def signature(self) -> tuple:
+    def signature(self) -> Signature:
         """What a built solver depends on: sizes and shapes, not numbers (and whether the
         objective is quadratic)."""
         shapes = tuple((c.contact.shape, c.rows.shape[0]) for c in self.contacts)
@@ -146,7 +154,7 @@ class ReducedGeometry:
     equalities: np.ndarray
     free_motions: np.ndarray
     free_scaled: np.ndarray
-    free_descriptions: Sequence[str]
+    free_descriptions: LazySequence[str]
     contact_matrices: tuple[np.ndarray, ...]
     stack: StackedContacts
     conditioning: float = 1.0
@@ -154,7 +162,9 @@ class ReducedGeometry:
     stiffness: np.ndarray | None = None  # per unknown x_i, k_i [N/m or N m/rad]; None: rigid
 
 
-def _split_rows(rows: np.ndarray, dimension: int, rtol: float = 1e-10):
+def _split_rows(
+    rows: np.ndarray, dimension: int, rtol: float = 1e-10
+) -> tuple[np.ndarray, np.ndarray, float]:
     """One SVD of ``rows`` (k, d): orthonormal bases of their null space (d, d - rank) and of its
     complement (d, rank), and their conditioning: the smallest singular value above ``rtol`` of
     the largest, over the largest.
@@ -177,7 +187,9 @@ def _split_rows(rows: np.ndarray, dimension: int, rtol: float = 1e-10):
     return spaces.null, spaces.row, float(kept[-1] / singular[0])
 
 
-def _split_blocks(rows: np.ndarray, rtol: float = 1e-10):
+def _split_blocks(
+    rows: np.ndarray, rtol: float = 1e-10
+) -> tuple[np.ndarray, np.ndarray, float, Index | None] | None:
     r""":func:`_split_rows` of ``rows`` (k, d) block by block, or None when they form one block
     over all d columns.
 
@@ -297,7 +309,7 @@ def _column_blocks(touched: np.ndarray, where: np.ndarray, d: int) -> np.ndarray
 
 def reduce_geometry(
     maps: SmallDisplacementMaps,
-    joints: dict,
+    joints: Joints,
     length_scale: float,
     couplings: tuple[Coupling, ...] = (),
 ) -> ReducedGeometry:
@@ -314,7 +326,10 @@ def reduce_geometry(
     n = maps.size
     contacts, equality_rows, equality_joints = _constraints(maps, joints)
     for coupling in couplings:
-        follower, leader = joints[coupling.follower], joints[coupling.leader]
+        follower, leader = (
+            coupled_joint(joints, coupling.follower),
+            coupled_joint(joints, coupling.leader),
+        )
         equality_rows.append(
             maps.play_torsor[follower.name][follower.motion_component]
             - coupling.multiplier * maps.play_torsor[leader.name][leader.motion_component]
@@ -416,7 +431,7 @@ def with_scaled_load(
     reduced_gradient: np.ndarray,
     along_free: np.ndarray,
     maps: SmallDisplacementMaps,
-    joints: dict,
+    joints: Joints,
     length_scale: float,
     load_size: float = 0.0,
 ) -> ReducedProblem:
@@ -488,7 +503,9 @@ def loaded_problem(
     )
 
 
-def _constraints(maps: SmallDisplacementMaps, joints: dict):
+def _constraints(
+    maps: SmallDisplacementMaps, joints: Joints
+) -> tuple[list[ContactConstraint], list[np.ndarray], list[str]]:
     contacts: list[ContactConstraint] = []
     equality_rows: list[np.ndarray] = []
     equality_joints: list[str] = []
@@ -499,7 +516,9 @@ def _constraints(maps: SmallDisplacementMaps, joints: dict):
             for component in joint.clearance.rigid_components:
                 equality_rows.append(torsor[component])
                 equality_joints.append(name)
-        offsets = nominal_offsets(joint, maps.eccentricity[name]) if is_loop else {}
+        offsets = (
+            nominal_offsets(joint, maps.eccentricity[name]) if isinstance(joint, LoopJoint) else {}
+        )
         for contact in joint.clearance.contacts:
             rows = contact.linear_rows() @ torsor
             if contact.bound > 0.0:
@@ -511,7 +530,9 @@ def _constraints(maps: SmallDisplacementMaps, joints: dict):
     return contacts, equality_rows, equality_joints
 
 
-def _normalised_equalities(maps, equalities: np.ndarray, names: list[str], scale) -> np.ndarray:
+def _normalised_equalities(
+    maps: SmallDisplacementMaps, equalities: Array, names: list[str], scale: Array
+) -> Array:
     """Closure rows E Z, each divided by the size of its joint's whole scaled torsor map.
 
     A row that is round-off of that size (the out-of-plane closure of a planar loop whose tree
@@ -523,10 +544,16 @@ def _normalised_equalities(maps, equalities: np.ndarray, names: list[str], scale
         name: float(np.abs(maps.joint_torsor[name] * scale).max(initial=0.0)) for name in set(names)
     }
     divisors = np.array([sizes[name] or 1.0 for name in names])
-    return equalities * scale / divisors[:, None]
+    normalised: Array = equalities * scale / divisors[:, None]  # (NumPy's stubs: Any)
+    return normalised
 
 
-def _variable_scales(maps, joints, contacts, length_scale: float) -> np.ndarray:
+def _variable_scales(
+    maps: SmallDisplacementMaps,
+    joints: Joints,
+    contacts: list[ContactConstraint],
+    length_scale: float,
+) -> Array:
     """Clearance-sized scale of every unknown: its joint's play [m], or play / L_ref [rad]."""
     bounds = [c.contact.bound for c in contacts]
     reference = float(statistics.median(bounds)) if bounds else 1.0
@@ -534,15 +561,16 @@ def _variable_scales(maps, joints, contacts, length_scale: float) -> np.ndarray:
     return np.where(translational_unknowns(maps), plays, reference / length_scale)
 
 
-def translational_unknowns(maps: SmallDisplacementMaps) -> np.ndarray:
+def translational_unknowns(maps: SmallDisplacementMaps) -> Mask:
     """Per unknown, True when it is a translation [m] (its basis direction moves more than it
     turns), False for a rotation [rad]."""
     basis = np.array(maps.variable_basis).reshape(-1, 6)
-    return np.abs(basis[:, :3]).sum(axis=1) >= np.abs(basis[:, 3:]).sum(axis=1)
+    translational: Mask = np.abs(basis[:, :3]).sum(axis=1) >= np.abs(basis[:, 3:]).sum(axis=1)
+    return translational
 
 
 def describe_motion(
-    maps: SmallDisplacementMaps, joints: dict, motion: np.ndarray, length_scale: float
+    maps: SmallDisplacementMaps, joints: Joints, motion: np.ndarray, length_scale: float
 ) -> list[str]:
     """Name the joint components that a motion x moves, largest first: those above 20 % of the
     largest, then how many smaller ones it moves too (above 1e-9 of the largest).

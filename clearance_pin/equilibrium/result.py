@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal, cast
+from typing import TYPE_CHECKING, Any, Literal, cast
 
 import numpy as np
 import pinocchio as pin
@@ -29,12 +29,14 @@ from ..kinematics.loop_frames import RIGID_TOLERANCE
 from ..model.frames import frame_id as find_frame
 from .displacement import Displacement, displacement_in
 from .method import Method
-from .outputs import output_displacements, resolve_outputs
-from .reactions import joint_reactions
+from .outputs import OutputPoint, output_displacements, resolve_outputs
+from .reactions import Reaction, joint_reactions
 from .report import report
 from .residuals import Residuals
 
 if TYPE_CHECKING:  # the mechanism module imports this one
+    from ..check.report import CheckReport
+    from ..model.loads import Load
     from ..model.mechanism_parts import ConfigurationParts as Configuration
     from ..model.mechanism_parts import MechanismParts as Mechanism
 
@@ -146,16 +148,16 @@ class Equilibrium:
     build_time: float
     solve_time: float
     polished: bool = False
-    difference: dict | None = None
+    difference: dict[str, Any] | None = None
     linear: Equilibrium | None = None
     body_placements: Sequence[pin.SE3] = ()
     mechanism: object = field(default=None, repr=False, compare=False)
     configuration: object = field(default=None, repr=False, compare=False)
     body_twists: np.ndarray | None = field(default=None, repr=False, compare=False)
     note: str = ""
-    loads: tuple | None = field(default=None, repr=False)
-    output_points: tuple = field(default=(), repr=False)
-    difference_bound: dict | None = None
+    loads: tuple[Load, ...] | None = field(default=None, repr=False)
+    output_points: tuple[OutputPoint, ...] = field(default=(), repr=False)
+    difference_bound: dict[str, Any] | None = None
     deflections: Mapping[str, np.ndarray] | None = field(default=None, repr=False)
 
     @property
@@ -189,7 +191,7 @@ class Equilibrium:
         return self.body_placements[body] * model.frames[frame_id].placement
 
     def frame_displacement(
-        self, frame: str, reference_frame=pin.LOCAL_WORLD_ALIGNED
+        self, frame: str, reference_frame: pin.ReferenceFrame = pin.LOCAL_WORLD_ALIGNED
     ) -> Displacement:
         """Displacement of a Pinocchio frame from its nominal pose, a ``pin.Motion`` (linear [m],
         angular [rad]) in ``reference_frame`` (:mod:`.displacement`: ``pin.LOCAL_WORLD_ALIGNED``,
@@ -251,7 +253,7 @@ class Equilibrium:
         points = self.output_points or resolve_outputs(self.mechanism, self.loads or ())
         return output_displacements(self, points)
 
-    def reaction(self, joint: str, frame: str = "joint"):
+    def reaction(self, joint: str, frame: str = "joint") -> Reaction:
         """The wrench the parent part exerts on the child part through ``joint`` (for a loop
         joint the parent is ``frame_a``'s part): contact forces + rigid directions + drive torque.
 
@@ -330,13 +332,13 @@ class Equilibrium:
         """The contacts that carry load."""
         return tuple(c for c in self.contacts if c.active)
 
-    def check(self, **options):
+    def check(self, **options: Any) -> CheckReport:
         """Measure the solved pose with coal (see :mod:`clearance_pin.check`)."""
         from ..check import check_equilibrium
 
         return check_equilibrium(self, **options)
 
-    def to_dict(self, length: float = 1.0, unit: str = "m") -> dict:
+    def to_dict(self, length: float = 1.0, unit: str = "m") -> dict[str, Any]:
         """JSON-ready dict; lengths multiplied by ``length`` (1e3 for mm), angles in rad."""
         return {
             "formulation": self.formulation,
@@ -387,12 +389,12 @@ class Equilibrium:
         return report(self)
 
 
-def _difference_dict(difference: dict | None, length: float) -> dict | None:
+def _difference_dict(difference: dict[str, Any] | None, length: float) -> dict[str, Any] | None:
     """``difference`` / ``difference_bound`` JSON-ready: lengths times ``length``, arrays as
     lists, per output ``{"translation", "rotation_rad"}``."""
     if difference is None:
         return None
-    out = {}
+    out: dict[str, Any] = {}
     for key, value in difference.items():
         if key == "outputs":
             out[key] = {
@@ -411,14 +413,15 @@ def _difference_dict(difference: dict | None, length: float) -> dict | None:
     return out
 
 
-def _finite(values: np.ndarray):
+def _finite(values: np.ndarray) -> float | list[Any] | None:
     """A number or list for JSON; None for an unknown (infinite or NaN) estimate."""
     if not np.all(np.isfinite(values)):
         return None
-    return values.tolist()
+    listed: float | list[Any] = values.tolist()  # a number for a 0-d array
+    return listed
 
 
-def _scaled_point(point, length: float):
+def _scaled_point(point: np.ndarray | None, length: float) -> list[float] | None:
     return None if point is None else (np.asarray(point) * length).tolist()
 
 

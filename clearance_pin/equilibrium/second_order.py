@@ -51,17 +51,30 @@ and one dense KKT solve, no CasADi build.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from ..errors import UnsupportedError
-from ..model.clearance import ALPHA, BETA, GAMMA
+from ..model.clearance import ALPHA, BETA, GAMMA, ContactPoint
 from ..model.couplings import passive
+from ..model.joints import LoopJoint, TreeJoint
+from ..numerics import Array
+from .load_terms import BodyLoad
+from .outputs import OutputPoint
 from .poses import clearance_frames
 from .prepared import linear_setup
 from .small_displacement import tree_joint_basis
+
+if TYPE_CHECKING:  # the mechanism module imports this one
+    from ..model.loads import Load
+    from ..model.mechanism_parts import ConfigurationParts as Configuration
+    from ..model.mechanism_parts import MechanismParts as Mechanism
+    from .result import Equilibrium
 
 SAFETY_FACTOR = 2.0
 VERIFIED_SHARE = 1e-9  # both answers are verified to this share of the play
@@ -83,8 +96,8 @@ class DifferenceEstimate:
         contact_shift: largest correction of a contact point over its play (dimensionless).
     """
 
-    predicted: dict
-    bounds: dict
+    predicted: dict[str, tuple[Array, Array]]
+    bounds: dict[str, tuple[float, float]]
     reliable: bool
     reason: str
     contact_shift: float
@@ -99,7 +112,7 @@ class DifferenceEstimate:
         """Largest rotation bound over the outputs [rad]."""
         return max((b[1] for b in self.bounds.values()), default=0.0)
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         """``{"translation_m", "rotation_rad": largest bounds, "outputs": name -> (translation
         bound [m], rotation bound [rad]), "reliable", "reason"}`` (``Equilibrium.difference_bound``).
         """
@@ -118,7 +131,7 @@ class _Pose:
 
     mechanism: object
     configuration: object
-    body_placements: tuple
+    body_placements: tuple[pin.SE3, ...]
 
 
 @dataclass
@@ -133,21 +146,26 @@ class _ContactTerms:
 class _ExactTerms:
     """The exact model evaluated (numpy) at unknowns x."""
 
-    placed: list  # pin.SE3 per Pinocchio joint
+    placed: list[pin.SE3]  # per Pinocchio joint
     twists: np.ndarray  # (bodies, 6, n): x-Jacobian of the world spatial twist of every body
-    contacts: list  # _ContactTerms, in the order of the linear answer's contacts
+    contacts: list[_ContactTerms]  # in the order of the linear answer's contacts
     gradient: np.ndarray  # (n,) gradient of the exact potential [J per unit x]
     equalities: np.ndarray  # (e,) loop conditions
     equality_jacobian: np.ndarray  # (e, n)
 
 
-def estimate_difference(linear, loads, q, points) -> DifferenceEstimate:
+def estimate_difference(
+    linear: Equilibrium,
+    loads: Sequence[Load],
+    q: npt.ArrayLike | None,
+    points: Sequence[OutputPoint],
+) -> DifferenceEstimate:
     """Estimate the exact - linear difference at ``points`` (:class:`~.outputs.OutputPoint`)
     from the linear equilibrium ``linear`` of ``loads`` at ``q`` (see module docstring)."""
-    mechanism = linear.mechanism
+    mechanism = cast("Mechanism", linear.mechanism)
     if linear.status == "indeterminate":
         zero = (np.zeros(3), np.zeros(3))  # nothing moves in either model
-        bounds = {p.name: (0.0, 0.0) for p in points}
+        bounds: dict[str, tuple[float, float]] = {p.name: (0.0, 0.0) for p in points}
         return DifferenceEstimate({p.name: zero for p in points}, bounds, True, "", 0.0)
     if linear.deflections:
         return _unreliable(points, "no second-order estimate with joint stiffness", 0.0)
@@ -228,33 +246,34 @@ def estimate_difference(linear, loads, q, points) -> DifferenceEstimate:
         )
     if reason:
         return _unreliable(points, reason, shift)
-    predicted, bounds = {}, {}
+    predicted: dict[str, tuple[Array, Array]] = {}
+    bounds = {}
     largest_play = max((c.clearance for c in linear.contacts), default=0.0)
     length = mechanism.length_scale()
     nominal = configuration.oMi
-    for point in points:
-        start = nominal[point.body] * point.placement
-        moved = at_x.placed[point.body] * point.placement
-        twist_l = at_zero.twists[point.body] @ x_l
+    for output in points:
+        start = nominal[output.body] * output.placement
+        moved = at_x.placed[output.body] * output.placement
+        twist_l = at_zero.twists[output.body] @ x_l
         linear_t = twist_l[:3] + np.cross(twist_l[3:], start.translation)
         exact_t = moved.translation - start.translation
         exact_r = np.asarray(pin.log3(moved.rotation @ start.rotation.T))
-        correction = at_x.twists[point.body] @ delta
+        correction = at_x.twists[output.body] @ delta
         translation = (
             exact_t - linear_t + correction[:3] + np.cross(correction[3:], moved.translation)
         )
         rotation = exact_r - twist_l[3:] + correction[3:]
-        predicted[point.name] = (translation, rotation)
+        predicted[output.name] = (translation, rotation)
         floor_t = VERIFIED_SHARE * max(largest_play, float(np.linalg.norm(linear_t)))
         floor_r = VERIFIED_SHARE * max(float(np.linalg.norm(twist_l[3:])), largest_play / length)
-        bounds[point.name] = (
+        bounds[output.name] = (
             SAFETY_FACTOR * float(np.linalg.norm(translation)) + floor_t,
             SAFETY_FACTOR * float(np.linalg.norm(rotation)) + floor_r,
         )
     return DifferenceEstimate(predicted, bounds, True, "", shift)
 
 
-def _unreliable(points, reason: str, shift: float) -> DifferenceEstimate:
+def _unreliable(points: Sequence[OutputPoint], reason: str, shift: float) -> DifferenceEstimate:
     inf = (np.inf, np.inf)
     nan = (np.full(3, np.nan), np.full(3, np.nan))
     return DifferenceEstimate(
@@ -262,7 +281,14 @@ def _unreliable(points, reason: str, shift: float) -> DifferenceEstimate:
     )
 
 
-def _correction(hessian, blocks, residual_s, residuals_c, scale, load_size):
+def _correction(
+    hessian: Array,
+    blocks: list[Array],
+    residual_s: Array,
+    residuals_c: list[Array],
+    scale: Array,
+    load_size: float,
+) -> tuple[Array, Array, float]:
     """Solve the KKT system of the module docstring in the scaled unknowns z = x / scale, rows
     of G normalised (their right-hand sides with them).
 
@@ -292,7 +318,15 @@ def _correction(hessian, blocks, residual_s, residuals_c, scale, load_size):
     return scale * solution[:n], solution[n : n + loaded] / norms[:loaded], unsolved
 
 
-def _check_contacts(linear, points_of, at_x, delta, loaded, mu, d_mu) -> tuple[float, str]:
+def _check_contacts(
+    linear: Equilibrium,
+    points_of: list[ContactPoint],
+    at_x: _ExactTerms,
+    delta: Array,
+    loaded: list[int],
+    mu: Array,
+    d_mu: Array,
+) -> tuple[float, str]:
     """Largest contact shift over its play, and why the linear contact set may not hold."""
     shift, loaded_set = 0.0, set(loaded)
     for j, contact in enumerate(linear.contacts):
@@ -313,25 +347,32 @@ def _check_contacts(linear, points_of, at_x, delta, loaded, mu, d_mu) -> tuple[f
     return shift, ""
 
 
-def _contact_points(linear) -> list:
+def _contact_points(linear: Equilibrium) -> list[ContactPoint]:
     """The clearance ContactPoint of every contact of the answer, in its order."""
-    joints = linear.mechanism.joints
+    joints = cast("Mechanism", linear.mechanism).joints
     return [
         next(p for p in joints[c.joint].clearance.contacts if p.name == c.point)
         for c in linear.contacts
     ]
 
 
-def _evaluate(linear, configuration, body_loads, x, points_of) -> _ExactTerms:
+def _evaluate(
+    linear: Equilibrium,
+    configuration: Configuration,
+    body_loads: dict[int, BodyLoad],
+    x: Array,
+    points_of: list[ContactPoint],
+) -> _ExactTerms:
     """The exact model at x, in numpy: placements, twist Jacobians, contacts, potential gradient
     and loop conditions (the same equations as :mod:`.exact`, differentiated by hand)."""
-    mechanism = linear.mechanism
+    mechanism = cast("Mechanism", linear.mechanism)
     model = mechanism.model
     nominal = configuration.oMi
     n = x.size
     placed = [pin.SE3.Identity()] * model.njoints
     twists = np.zeros((model.njoints, 6, n))
-    by_id, offset = {}, 0
+    by_id: dict[int, tuple[TreeJoint, np.ndarray, int]] = {}
+    offset = 0
     for joint in mechanism.tree_joints:
         basis = tree_joint_basis(joint)
         by_id[joint.joint_id] = (joint, basis, offset)
@@ -349,12 +390,12 @@ def _evaluate(linear, configuration, body_loads, x, points_of) -> _ExactTerms:
             oMc.action @ pin.Jexp6(pin.Motion(torsor)) @ basis
         )
     frames = clearance_frames(_Pose(mechanism, configuration, tuple(placed)))
-    relative_jacobian = {}
+    relative_jacobian: dict[str, Array] = {}
     for name, f in frames.items():
         relative_jacobian[name] = f.child.inverse().action @ (
             twists[f.child_body] - twists[f.parent_body]
         )
-    contacts = []
+    contacts: list[_ContactTerms] = []
     for contact, point in zip(linear.contacts, points_of):
         relative = frames[contact.joint].relative
         contacts.append(_contact_terms(relative, relative_jacobian[contact.joint], point))
@@ -369,7 +410,8 @@ def _evaluate(linear, configuration, body_loads, x, points_of) -> _ExactTerms:
             + 0.5 * (np.trace(M) * np.eye(3) - M).T @ load.torque
         )
         gradient -= twists[body].T @ np.concatenate([load.force, moment])
-    values, rows = [], []
+    values: list[float] = []
+    rows: list[Array] = []
     for loop in mechanism.loop_joints:
         v, r = _loop_conditions(loop, frames[loop.name].relative, relative_jacobian[loop.name])
         values.extend(v)
@@ -384,7 +426,7 @@ def _evaluate(linear, configuration, body_loads, x, points_of) -> _ExactTerms:
     )
 
 
-def _contact_terms(relative: pin.SE3, jacobian: np.ndarray, point) -> _ContactTerms:
+def _contact_terms(relative: pin.SE3, jacobian: np.ndarray, point: ContactPoint) -> _ContactTerms:
     r""":math:`d = p + R r - r` of a contact point and its x-Jacobian
     :math:`R\,[I, -[r]_\times]\, J_\eta` (selected components)."""
     R, p = relative.rotation, relative.translation
@@ -398,10 +440,13 @@ def _contact_terms(relative: pin.SE3, jacobian: np.ndarray, point) -> _ContactTe
     return _ContactTerms(d[selected], full[selected])
 
 
-def _loop_conditions(loop, relative: pin.SE3, jacobian: np.ndarray) -> tuple[list, list]:
+def _loop_conditions(
+    loop: LoopJoint, relative: pin.SE3, jacobian: np.ndarray
+) -> tuple[list[float], list[Array]]:
     """The rigid conditions of a loop joint (as :func:`.exact._loop_equalities`) and their rows."""
     R, p = relative.rotation, relative.translation
-    values, rows = [], []
+    values: list[float] = []
+    rows: list[Array] = []
     rigid = loop.clearance.rigid_components
     rotations = {c for c in rigid if c >= ALPHA}
     translation_rows = np.hstack([R, np.zeros((3, 3))]) @ jacobian
@@ -431,11 +476,11 @@ def _vee(skew: np.ndarray) -> np.ndarray:
     return np.array([skew[2, 1], skew[0, 2], skew[1, 0]])
 
 
-def boundary_errors(equilibrium) -> dict[str, float]:
+def boundary_errors(equilibrium: Equilibrium) -> dict[str, float]:
     """Per contact ``joint:point``: distance [m] of the true contact point from where the model
     puts it (on the boundary for contacts; inside it for free points)."""
     relative = {name: f.relative for name, f in clearance_frames(equilibrium).items()}
-    errors = {}
+    errors: dict[str, float] = {}
     for contact, point in zip(equilibrium.contacts, _contact_points(equilibrium)):
         placement = relative[contact.joint]
         d = point.displacement(placement.rotation, placement.translation)

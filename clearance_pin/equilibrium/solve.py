@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from ..errors import (
@@ -45,6 +47,12 @@ from .reduction import reduce_geometry
 from .result import Equilibrium
 from .small_displacement import build_maps
 
+if TYPE_CHECKING:  # the mechanism module imports this one
+    from ..model.loads import Load
+    from ..model.mechanism_parts import MechanismParts as Mechanism
+    from .cache import SolveCache
+    from .outputs import OutputPoint
+
 CONDITIONING_WARNING = 1e-6
 SINGULAR_PROBE = 1e-6  # [rad or m] how far the singular-position test looks
 UNPOLISHED_KKT = 1e-9  # KKT residuals an answer the Newton polish left must meet to be returned
@@ -52,13 +60,13 @@ FINITE_ROTATION = 1e-2  # [rad] a linear answer turning a joint more than this i
 
 
 def solve_linear(
-    mechanism,
-    loads,
-    q=None,
+    mechanism: Mechanism,
+    loads: Sequence[Load],
+    q: npt.ArrayLike | None = None,
     tol: float = 1e-12,
     backend: str = "auto",
     warm_start: bool = True,
-    output_points: tuple = (),
+    output_points: tuple[OutputPoint, ...] = (),
     prepared: PreparedGeometry | None = None,
 ) -> Equilibrium:
     """Small-displacement equilibrium (docs/method.md sections 2 and 3) with its residuals
@@ -74,7 +82,7 @@ def solve_linear(
     if prepared.geometry.stiffness is not None and not mechanism.loop_joints:
         return _springs_superposed(mechanism, prepared, loads, q, tol, backend, warm_start,
                                    output_points, started)  # fmt: skip
-    cache = mechanism.cache
+    cache: SolveCache = mechanism.cache
     plan = linear_plan(mechanism, prepared, backend)
     fast = fast_terms(prepared) if Method.COMPILED in plan else None
     if fast is not None:
@@ -211,8 +219,17 @@ def solve_linear(
     return equilibrium
 
 
-def _springs_superposed(mechanism, prepared, loads, q, tol, backend, warm_start, output_points,
-                        started) -> Equilibrium:  # fmt: skip
+def _springs_superposed(
+    mechanism: Mechanism,
+    prepared: PreparedGeometry,
+    loads: Sequence[Load],
+    q: npt.ArrayLike | None,
+    tol: float,
+    backend: str,
+    warm_start: bool,
+    output_points: tuple[OutputPoint, ...],
+    started: float,
+) -> Equilibrium:
     """A tree with stiffness: its rigid twin's answer (its own plan: closed forms, kernel, cone
     solvers) plus each spring's deflection (:mod:`.elastic_tree`)."""
     twin = play_twin(mechanism)
@@ -228,7 +245,9 @@ def _springs_superposed(mechanism, prepared, loads, q, tol, backend, warm_start,
     return answer
 
 
-def linear_plan(mechanism, prepared: PreparedGeometry, backend: str) -> tuple[Method, ...]:
+def linear_plan(
+    mechanism: Mechanism, prepared: PreparedGeometry, backend: str
+) -> tuple[Method, ...]:
     """:func:`.plan.plan_linear` of ``mechanism`` prepared at one configuration (``prepared``)
     with the caller's ``backend``: its structure, whether it has a verified answer, and what is
     installed."""
@@ -248,7 +267,7 @@ def linear_plan(mechanism, prepared: PreparedGeometry, backend: str) -> tuple[Me
     )
 
 
-def _singular_position(mechanism, prepared: PreparedGeometry) -> bool:
+def _singular_position(mechanism: Mechanism, prepared: PreparedGeometry) -> bool:
     """True when the motions nothing blocks at the configuration of ``prepared`` are fewer at a
     configuration 1e-6 [rad or m] away in a fixed random direction: they exist only at this
     configuration (a toggle or dead centre of the loop closure: blocked at second order), not
@@ -265,10 +284,10 @@ def _singular_position(mechanism, prepared: PreparedGeometry) -> bool:
         there = reduce_geometry(maps, mechanism.joints, mechanism.length_scale(), couplings)
     except (ClearancePinError, ValueError, np.linalg.LinAlgError):
         return False  # undecided: the general diagnosis stands
-    return there.free_motions.shape[1] < prepared.geometry.free_motions.shape[1]
+    return bool(there.free_motions.shape[1] < prepared.geometry.free_motions.shape[1])
 
 
-def toggle_rotation(mechanism, equilibrium: Equilibrium) -> float:
+def toggle_rotation(mechanism: Mechanism, equilibrium: Equilibrium) -> float:
     r"""The rotation [rad] the small-displacement model gives a joint near a singular position
     of the loop closure, estimated from the play and the closure's conditioning :math:`\sigma`
     (its smallest singular value, 1 for a well-posed mechanism):
@@ -282,7 +301,7 @@ def toggle_rotation(mechanism, equilibrium: Equilibrium) -> float:
     conditioning = residuals.closure_conditioning
     if not conditioning or not residuals.clearance_m:
         return 0.0
-    return residuals.clearance_m / mechanism.length_scale() / conditioning
+    return float(residuals.clearance_m / mechanism.length_scale() / conditioning)
 
 
 def _kkt_certified(equilibrium: Equilibrium) -> bool:
@@ -296,9 +315,19 @@ def _kkt_certified(equilibrium: Equilibrium) -> bool:
     )
 
 
-def _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, started, output_points):
+def _compiled(
+    mechanism: Mechanism,
+    prepared: PreparedGeometry,
+    fast: FastTerms,
+    loads: Sequence[Load],
+    tol: float,
+    backend: str,
+    warm_start: bool,
+    started: float,
+    output_points: tuple[OutputPoint, ...],
+) -> Equilibrium | None:
     """The compiled answer (:func:`.fast_path.solve_compiled`), warned about like any, or None."""
-    cache = mechanism.cache
+    cache: SolveCache = mechanism.cache
     answer = solve_compiled(
         fast,
         loads,
@@ -313,8 +342,14 @@ def _compiled(mechanism, prepared, fast, loads, tol, backend, warm_start, starte
     return answer
 
 
-def resolve_linear(mechanism, fast: FastTerms, bound: BoundLoads, vector: np.ndarray, loads_of,
-                   output_points: tuple) -> Equilibrium | None:  # fmt: skip
+def resolve_linear(
+    mechanism: Mechanism,
+    fast: FastTerms,
+    bound: BoundLoads,
+    vector: np.ndarray,
+    loads_of: Callable[[], Iterable[Load]],
+    output_points: tuple[OutputPoint, ...],
+) -> Equilibrium | None:
     """A resolver's warm re-solve by the kernel (:func:`.fast_path.resolve_compiled`) with the
     force and torque vectors ``vector`` of the loads ``bound``, warned about like any, or None
     (no warm start yet, or not verified: the caller solves the general way)."""
@@ -328,7 +363,9 @@ def resolve_linear(mechanism, fast: FastTerms, bound: BoundLoads, vector: np.nda
     return answer
 
 
-def _warn_if_inaccurate(mechanism, equilibrium: Equilibrium, conditioning: float) -> None:
+def _warn_if_inaccurate(
+    mechanism: Mechanism, equilibrium: Equilibrium, conditioning: float
+) -> None:
     """ConditioningWarning for a finite rotation or a nearly singular loop closure."""
     largest_rotation = equilibrium.residuals.largest_rotation_rad or 0.0
     if largest_rotation > FINITE_ROTATION:

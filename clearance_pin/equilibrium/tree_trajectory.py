@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
-from .blocks import Array, Index, Mask
+from ..numerics import Array, Index, Mask
 from .reduction import ROUND_OFF_WORK, UNBOUNDED_FRACTION, ReducedGeometry
 from .small_displacement import tree_joint_basis
 

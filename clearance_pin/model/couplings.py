@@ -25,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError
+from .joints import LoopJoint, TreeJoint
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,14 @@ class Coupling:
 def passive(couplings: Iterable[Coupling], joints: Mapping[str, Any]) -> tuple[Coupling, ...]:
     """The couplings whose leader is not driven (joint name -> TreeJoint ``joints``)."""
     return tuple(c for c in couplings if not joints[c.leader].driven)
+
+
+def coupled_joint(joints: Mapping[str, TreeJoint | LoopJoint], name: str) -> TreeJoint:
+    """The joint ``name`` of a coupling, in ``joints`` (joint name -> joint): a tree joint, as
+    couplings join the model's joints."""
+    joint = joints[name]
+    assert isinstance(joint, TreeJoint)  # couplings are read from the model's (tree) joints
+    return joint
 
 
 def urdf_couplings(source: str, joints: Iterable[ET.Element]) -> tuple[Coupling, ...]:
@@ -91,4 +100,4 @@ def coupled(model: pin.Model, couplings: tuple[Coupling, ...], q: np.ndarray) ->
     return q
 
 
-__all__ = ["Coupling", "coupled", "passive", "urdf_couplings"]
+__all__ = ["Coupling", "coupled", "coupled_joint", "passive", "urdf_couplings"]
