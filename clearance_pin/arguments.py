@@ -15,16 +15,13 @@ latter a load was solved as no load (no contact) before, without a word.
 
 from __future__ import annotations
 
-import math
 import numbers
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .equilibrium.cone_solver import BACKENDS
-from .equilibrium.formulation import DEFAULTS
 from .errors import ArgumentError, LoadError, ModelError
 from .model import plausibility
 from .model.loads import Gravity, PointForce, Torque
@@ -48,46 +45,8 @@ MOST_POSITIONS = 10_000
 MOST_SAMPLES = 1_000_000
 
 
-def _is_bool(value: object) -> bool:
+def is_bool(value: object) -> bool:
     return isinstance(value, (bool, np.bool_))
-
-
-def check_options(
-    exact: object,
-    gravity: object,
-    tol: object,
-    backend: object,
-    accuracy: object = 1e-9,
-    warm_start: object = True,
-) -> None:
-    """The scalar options of a solve (see :meth:`Mechanism.solve` for their meaning)."""
-    if (
-        (exact is False or exact is True)
-        and gravity is None
-        and type(tol) is float
-        and type(accuracy) is float
-        and 0.0 < tol < math.inf
-        and 0.0 < accuracy < math.inf
-        and type(backend) is str
-        and backend in BACKENDS
-        and (warm_start is True or warm_start is False)
-    ):
-        return  # the common case, decided without the checks below (a planner's re-solve)
-    if not (_is_bool(exact) or (isinstance(exact, str) and exact == "auto")):
-        raise ArgumentError("exact", "True, False or 'auto'", exact)
-    if not (gravity is None or _is_bool(gravity) or isinstance(gravity, Gravity)):
-        raise ArgumentError("gravity", "True, False, None or a clearance_pin.Gravity", gravity)
-    for name, value in (("tol", tol), ("accuracy", accuracy)):
-        if (
-            _is_bool(value)
-            or not isinstance(value, numbers.Real)
-            or not (math.isfinite(value) and float(value) > 0.0)
-        ):
-            raise ArgumentError(name, "a finite number > 0", value)
-    if not (isinstance(backend, str) and backend in BACKENDS):
-        raise ArgumentError("backend", f"one of {', '.join(map(repr, BACKENDS))}", backend)
-    if not _is_bool(warm_start):
-        raise ArgumentError("warm_start", "True or False", warm_start)
 
 
 def check_loads(loads: object, argument: str = "loads") -> None:
@@ -137,39 +96,12 @@ def check_configuration(
     return array
 
 
-def check_solve(
-    mechanism: Mechanism,
-    loads: object,
-    exact: object,
-    q: object,
-    gravity: object,
-    tol: object,
-    backend: object,
-    accuracy: object,
-    warm_start: object,
-    outputs: object = None,
-) -> np.ndarray | None:
-    """Every argument of :meth:`Mechanism.solve`; returns ``q`` as an array (or None)."""
-    check_options(exact, gravity, tol, backend, accuracy, warm_start)
+def check_case(mechanism: Mechanism, loads: object, q: object) -> np.ndarray | None:
+    """The loads and configuration of a solve (its options are checked by
+    :meth:`~clearance_pin.equilibrium.options.SolveOptions.of`); returns ``q`` as an array (or
+    None)."""
     check_loads(loads)
-    check_outputs(outputs)
     return check_configuration(mechanism, q)
-
-
-def check_outputs(outputs: object) -> None:
-    """``outputs`` is None or a list (any iterable) of Pinocchio frame names; the names
-    themselves are looked up by :func:`~clearance_pin.equilibrium.outputs.resolve_outputs`."""
-    if outputs is None or (
-        isinstance(outputs, (list, tuple)) and all(type(n) is str for n in outputs)
-    ):
-        return
-    expected = "None or a list of Pinocchio frame names (write outputs=[name] for one)"
-    if isinstance(outputs, (str, bytes, Mapping)) or not isinstance(outputs, Iterable):
-        raise ArgumentError("outputs", expected, outputs)
-    if isinstance(outputs, Sequence):  # not consuming an iterator
-        for index, name in enumerate(outputs):
-            if not isinstance(name, str):
-                raise ArgumentError(f"outputs[{index}]", "a Pinocchio frame name", name)
 
 
 def check_load_magnitudes(loads: Iterable[object], argument: str = "loads") -> None:
@@ -277,7 +209,7 @@ def check_point(argument: str, point: np.ndarray, given: object) -> None:
 def check_count(argument: str, value: object, lowest: int, highest: int | None = None) -> int:
     """An integer option in ``[lowest, highest]`` (``--positions``, ``--samples``, ``chunks``)."""
     if (
-        _is_bool(value)
+        is_bool(value)
         or not isinstance(value, numbers.Integral)
         or int(value) < lowest
         or (highest is not None and int(value) > highest)
@@ -291,9 +223,15 @@ def check_count(argument: str, value: object, lowest: int, highest: int | None =
 
 def check_seed(argument: str, value: object) -> int:
     """A random seed: an integer >= 0 (NumPy's SeedSequence refuses negative ones)."""
-    if _is_bool(value) or not isinstance(value, numbers.Integral) or int(value) < 0:
+    if is_bool(value) or not isinstance(value, numbers.Integral) or int(value) < 0:
         raise ArgumentError(argument, "an integer >= 0", value)
     return int(value)
+
+
+def check_errors(errors: object) -> None:
+    """``errors`` of a batch: ``"raise"`` or ``"return"``."""
+    if not (isinstance(errors, str) and errors in ("raise", "return")):
+        raise ArgumentError("errors", "'raise' or 'return'", errors)
 
 
 def check_executor(executor: object) -> None:
@@ -308,25 +246,18 @@ def check_executor(executor: object) -> None:
 
 
 def check_solve_many(
-    mechanism: Mechanism, loads: object, configurations: object, options: Mapping[str, object]
+    mechanism: Mechanism,
+    loads: object,
+    configurations: object,
+    errors: object,
+    executor: object,
+    chunks: object,
 ) -> None:
-    """The arguments of :meth:`Mechanism.solve_many`, before any case is solved (so that
-    ``errors="return"`` does not turn a mistyped option into one error per case)."""
-    chosen = {**DEFAULTS, **options}
-    check_options(
-        chosen["exact"],
-        chosen["gravity"],
-        chosen["tol"],
-        chosen["backend"],
-        chosen["accuracy"],
-        chosen["warm_start"],
-    )
-    check_outputs(options.get("outputs"))
-    errors = options.get("errors", "raise")
-    if not (isinstance(errors, str) and errors in ("raise", "return")):
-        raise ArgumentError("errors", "'raise' or 'return'", errors)
-    check_executor(options.get("executor"))
-    chunks = options.get("chunks")
+    """The arguments of :meth:`Mechanism.solve_many` but its solve options (checked by
+    :meth:`~clearance_pin.equilibrium.options.SolveOptions.of`), before any case is solved (so
+    that ``errors="return"`` does not turn a mistyped argument into one error per case)."""
+    check_errors(errors)
+    check_executor(executor)
     if chunks is not None:
         check_count("chunks", chunks, 1)
     if loads is not None:

@@ -9,19 +9,22 @@ from __future__ import annotations
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
+from typing import Unpack
 
 import numpy as np
 import pinocchio as pin
 
 from .arguments import (
+    check_case,
     check_clearance_sizes,
     check_load_magnitudes,
-    check_solve,
     check_solve_many,
 )
 from .equilibrium.cache import SolveCache
 from .equilibrium.formulation import solve_case
 from .equilibrium.negligible_play import rigid_negligible_plays
+from .equilibrium.options import SolveKeywords, SolveOptions
+from .equilibrium.result import Equilibrium
 from .errors import (
     ClearancePinError,
     LoadError,
@@ -370,53 +373,28 @@ class Mechanism:
         return link.name, (link.placement.inverse() * placed.placement).translation
 
     # -- solving --------------------------------------------------------------------------
-    def solve(
-        self,
-        loads=None,
-        exact: bool | str = False,
-        q=None,
-        gravity=None,
-        tol: float = 1e-12,
-        backend: str = "auto",
-        accuracy: float = 1e-9,
-        warm_start: bool = True,
-        outputs=None,
-    ):
+    def solve(self, loads=None, *, q=None, **options: Unpack[SolveKeywords]) -> Equilibrium:
         """Quasi-static equilibrium of the parts in their joint clearances.
 
         Args:
             loads: PointForce / Torque / Gravity loads; default: those of the model file.
-            exact: False: the small-displacement model [Y]; True: also solve the exact
-                finite-displacement model (warm-started from the linear one) and return it, with
-                the linear solution in ``.linear``; ``"auto"``: the exact model only when the
-                estimated exact - linear difference at an output (translation [m], or rotation
-                times the mechanism's length scale) may exceed ``accuracy`` [m], or cannot be
-                estimated (:mod:`clearance_pin.equilibrium.second_order`); ``.note`` says which
-                and why, ``.difference_bound`` holds the estimate.
             q: nominal configuration (default: the model's); driven joints are held there.
-            gravity: True / a :class:`Gravity` to add gravity, False to switch it off,
-                None for the model's setting.
-            tol: optimiser tolerance (dimensionless, on clearance-scaled unknowns).
-            warm_start: the compiled kernel (when installed) starts from the recent answers of
-                the same structure (False: from the centred position; the other engines always
-                start from the nominal position).
-            backend: ``"auto"`` (Clarabel when installed, else IPOPT), ``"clarabel"`` or
-                ``"ipopt"`` for the small-displacement cone programme; the answer is polished and
-                verified the same way whichever finds it. The exact model is solved by Newton's
-                method from the linear answer, IPOPT (through CasADi) only when that does not
-                verify.
-            outputs: Pinocchio frame names whose world displacement is reported in
-                ``.outputs`` (and compared in ``.difference``), after the loaded points;
-                default: the leaf links (links without a child joint).
+            options: the options of every solve, by keyword (the same in :meth:`solve_many`
+                and :meth:`resolver`): ``exact`` (False, True or ``"auto"``), ``gravity``,
+                ``tol``, ``backend``, ``accuracy``, ``warm_start``, ``outputs``; see
+                :class:`~clearance_pin.equilibrium.options.SolveOptions` for each. The exact
+                model is solved by Newton's method from the linear answer, IPOPT (through
+                CasADi) only when that does not verify; with ``exact="auto"``, ``.note`` says
+                which model answered and why, ``.difference_bound`` holds the estimate.
 
         Returns:
             :class:`~clearance_pin.equilibrium.result.Equilibrium`.
         """
-        q = check_solve(self, loads, exact, q, gravity, tol, backend, accuracy, warm_start, outputs)
-        gravity_load = False if gravity is False else gravity
-        resolved = self.resolve_loads(loads, gravity_load)
+        chosen = SolveOptions.of(options)
+        configuration = check_case(self, loads, q)
+        resolved = self.resolve_loads(loads, chosen.gravity)
         check_load_magnitudes(resolved)
-        return solve_case(self, resolved, exact, q, tol, backend, accuracy, warm_start, outputs)
+        return solve_case(self, resolved, configuration, chosen)
 
     def envelope(self, output, q=None, exact: bool = False, **options):
         """The clearance envelope of ``output`` (a frame, ``"link@[x y z]"`` or ``(link, point)``):
@@ -442,28 +420,43 @@ class Mechanism:
 
         return accuracy_map(self, output, configurations, payloads, gravity)
 
-    def resolver(self, loads=None, q=None, gravity=None, outputs=None, **options):
+    def resolver(self, loads=None, *, q=None, **options: Unpack[SolveKeywords]):
         """A :class:`~clearance_pin.equilibrium.resolver.Resolver`: ``loads`` (default: the
         model's) built once, re-solved with new force and torque vectors,
-        ``resolver.solve(values)`` (options: every option of :meth:`solve`)."""
+        ``resolver.solve(values)`` or many at once, ``resolver.solve_many(values)`` (options:
+        those of :meth:`solve`)."""
         from .equilibrium.resolver import Resolver
 
-        return Resolver(self, loads, q=q, gravity=gravity, outputs=outputs, **options)
+        return Resolver(self, loads, q, SolveOptions.of(options))
 
-    def solve_many(self, loads=None, configurations=None, **options):
+    def solve_many(
+        self,
+        loads=None,
+        configurations=None,
+        *,
+        executor=None,
+        chunks: int | None = None,
+        errors: str = "raise",
+        progress: bool | None = None,
+        **options: Unpack[SolveKeywords],
+    ):
         """Many equilibria, warm-started in sequence; see
-        :func:`clearance_pin.equilibrium.batch.solve_many` (options: every option of
-        :meth:`solve` but ``q``, and executor, chunks, errors, progress)."""
+        :func:`clearance_pin.equilibrium.batch.solve_many` (options: those of :meth:`solve`
+        but ``q``; executor, chunks, errors, progress as there)."""
         from .equilibrium.batch import solve_many
 
+        chosen = SolveOptions.of(options)
         # every case checked here, before any is solved: an iterator is read into a list first
         # (the batches solve each case by the core, Mechanism.solve's checks behind them)
         if isinstance(loads, Iterator):
             loads = list(loads)
         if isinstance(configurations, Iterator):
             configurations = list(configurations)
-        check_solve_many(self, loads, configurations, options)
-        return solve_many(self, loads, configurations, **options)
+        check_solve_many(self, loads, configurations, errors, executor, chunks)
+        return solve_many(
+            self, loads, configurations, chosen,
+            executor=executor, chunks=chunks, errors=errors, progress=progress,
+        )  # fmt: skip
 
     def joint(self, name: str):
         """The tree or loop joint called ``name``."""

@@ -208,3 +208,52 @@ def test_many_configurations_checked_as_a_list():
         assert len(caught) == 1
         assert "2 of 4 put joint 'shoulder_lift'" in str(caught[0].message)
         assert "configurations[2]" in str(caught[0].message)
+
+
+ENTRY_POINTS = {
+    "solve": lambda mechanism, **options: mechanism.solve(**options),
+    "solve_many": lambda mechanism, **options: mechanism.solve_many([None, None], **options),
+    "resolver": lambda mechanism, **options: mechanism.resolver(**options),
+}
+
+
+@pytest.mark.parametrize("entry", sorted(ENTRY_POINTS))
+@pytest.mark.parametrize(
+    ("options", "argument"),
+    [
+        ({"tolerance": 1e-9}, "tolerance"),  # unknown: named, with the options there are
+        ({"backend": "clarabl"}, "backend"),
+        ({"exact": "yes"}, "exact"),
+        ({"accuracy": -1.0}, "accuracy"),
+        ({"outputs": "tip"}, "outputs"),
+        ({"warm_start": 1}, "warm_start"),
+    ],
+)
+def test_every_entry_point_checks_the_same_options(pendulum, entry, options, argument):
+    """One options object (equilibrium/options.py) for solve, solve_many and the resolver: the
+    same wrong option is refused the same way in each (issue 22)."""
+    with pytest.raises(cp.ArgumentError) as caught:
+        ENTRY_POINTS[entry](pendulum, **options)
+    assert caught.value.argument == argument
+    if argument == "tolerance":
+        assert "one of the options exact, gravity, tol, backend" in str(caught.value)
+
+
+@pytest.mark.parametrize("entry", sorted(ENTRY_POINTS))
+def test_every_option_works_in_every_entry_point(pendulum, entry):
+    """exact="auto" with its accuracy, outputs, tol, backend and warm_start given together give
+    the answer of solve with them (the resolver's by solve(values) and solve_many(values))."""
+    options = {"exact": "auto", "accuracy": 1e-12, "outputs": ["tip"], "tol": 1e-10,
+               "backend": "clarabel", "warm_start": False, "gravity": True}  # fmt: skip
+    expected = pendulum.solve(**options)
+    if entry == "resolver":
+        resolver = pendulum.resolver(**options)
+        vector = np.concatenate([load.force for load in resolver.loads if hasattr(load, "force")])
+        answers = [resolver.solve(vector), resolver.solve_many(vector[None])[0]]
+    elif entry == "solve_many":
+        answers = list(pendulum.solve_many([None, None], **options))
+    else:
+        answers = [pendulum.solve(**options)]
+    for answer in answers:
+        assert answer.formulation == expected.formulation and "tip" in answer.outputs
+        np.testing.assert_allclose(answer.outputs["tip"][0], expected.outputs["tip"][0], atol=1e-12)

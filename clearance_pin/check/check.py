@@ -84,7 +84,8 @@ def check_equilibrium(
 def exact_pose(linear: Equilibrium) -> Equilibrium:
     """The exact model's answer for the loads and configuration ``linear`` was solved for,
     started from it (what ``Mechanism.solve(exact=True)`` returns for the same case)."""
-    from ..equilibrium.formulation import TOL, exact_from_linear
+    from ..equilibrium.formulation import exact_from_linear
+    from ..equilibrium.options import TOL
 
     mechanism = solved_mechanism(linear)
     configuration = cast("ConfigurationParts | None", linear.configuration)

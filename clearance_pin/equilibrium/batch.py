@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..arguments import check_errors
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.couplings import coupled
 from ..model.frames import frame_id as find_frame
@@ -32,6 +33,7 @@ from .formulation import solve_with_options
 from .kkt import RESIDUAL_NAMES, UNLOADED
 from .linear_answer import assemble_linear
 from .method import Method
+from .options import DEFAULT_OPTIONS, SolveOptions
 from .outputs import resolve_outputs
 from .prepared import prepared_geometry
 from .reactions import FRAMES
@@ -327,7 +329,9 @@ def _cases(mechanism, loads, configurations) -> Cases:
     return Cases(loads, configurations, count)
 
 
-def _solve_chunk(mechanism, cases, options: dict, errors: str, progress=None, start=0) -> list:
+def _solve_chunk(
+    mechanism, cases, options: SolveOptions, errors: str, progress=None, start=0
+) -> list:
     """Solve cases in order (each warm-started from the previous one); ``start``: the index of
     the first in the whole batch (an error raised names its case)."""
     results: list[Any] = []  # answers, or the errors of their cases
@@ -354,32 +358,26 @@ def solve_many(
     mechanism,
     loads=None,
     configurations=None,
+    options: SolveOptions = DEFAULT_OPTIONS,
     *,
-    exact: bool | str = False,
-    gravity=None,
-    tol: float = 1e-12,
-    backend: str = "auto",
-    accuracy: float = 1e-9,
-    warm_start: bool = True,
-    outputs=None,
     executor: Executor | None = None,
     chunks: int | None = None,
     errors: str = "raise",
     progress: bool | None = None,
 ):
-    """Solve many load cases and/or nominal configurations of one mechanism.
+    """Solve many load cases and/or nominal configurations of one mechanism (the core of
+    :meth:`Mechanism.solve_many` and ``resolver.solve_many``, which check the arguments).
 
     Args:
         mechanism: the :class:`~clearance_pin.mechanism.Mechanism`.
-        loads: sequence of load cases (each a sequence of PointForce/Torque/Gravity), or None for
-            the model's loads in every case.
+        loads: sequence of load cases (each a sequence of PointForce/Torque/Gravity, or
+            :class:`~.load_table.LoadVectors`), or None for the model's loads in every case.
         configurations: sequence of nominal configurations q (nq,) (a trajectory of the driven
             joints; passive joints are closed for each), or None for the nominal one. When both
             are given they are paired case by case.
-        exact, gravity, tol, backend, accuracy, warm_start, outputs: as in
-            :meth:`Mechanism.solve` (every option of a single solve works here;
-            ``warm_start=False`` solves each case from the nominal position, not warm-started
-            from its neighbour).
+        options: the :class:`~.options.SolveOptions` of every case (every option of a single
+            solve works here; ``warm_start=False`` solves each case from the nominal position,
+            not warm-started from its neighbour).
         executor: run chunks of cases as tasks of this executor (default: in this process).
         chunks: number of chunks with an executor (default: 4 per worker, at least 1 case each).
         errors: ``"raise"`` (the first error stops, a note on it names its case) or ``"return"``
@@ -391,20 +389,11 @@ def solve_many(
         :class:`~clearance_pin.equilibrium.result.Equilibrium` (or errors, with
         ``errors="return"``), in case order, with whole-batch arrays (``torsors(joint)``, ``ok``).
     """
-    if errors not in ("raise", "return"):
-        raise ClearancePinError(f"errors must be 'raise' or 'return', got {errors!r}")
+    check_errors(errors)
     cases = _cases(mechanism, loads, configurations)
-    options = {
-        "exact": exact,
-        "gravity": gravity,
-        "tol": tol,
-        "backend": backend,
-        "accuracy": accuracy,
-        "warm_start": warm_start,
-        "outputs": outputs,
-    }
-    if outputs is not None:  # an unknown frame refused now, not in every case
-        resolve_outputs(mechanism, (), outputs)
+    exact, backend = options.exact, options.backend
+    if options.outputs is not None:  # an unknown frame refused now, not in every case
+        resolve_outputs(mechanism, (), options.outputs)
     show = progress if progress is not None else (None if len(cases) > 100 else False)
     bar = Progress(len(cases), "solve_many", show)
     if executor is None and not exact and backend == "auto":
@@ -415,7 +404,12 @@ def solve_many(
             bar.close()
             return blocks
     if executor is None:
-        if configurations is None and not exact and warm_start and len(cases) >= BATCH_MINIMUM:
+        if (
+            configurations is None
+            and not exact
+            and options.warm_start
+            and len(cases) >= BATCH_MINIMUM
+        ):
             batch = _solve_loads_batched(mechanism, cases, options, errors, bar)
             bar.close()
             return batch
@@ -441,13 +435,13 @@ def solve_many(
     return ChainedBatch(parts, mechanism)
 
 
-def _solve_part(mechanism, cases: Cases, options: dict, errors: str, start: int):
+def _solve_part(mechanism, cases: Cases, options: SolveOptions, errors: str, start: int):
     """An executor's task: :func:`solve_many` of one chunk of cases (its batched engines, in the
     task's process), its batch; an error raised names its case in the whole batch (``start``:
     the chunk's first)."""
     try:
         return solve_many(
-            mechanism, cases.loads, cases.configurations, **options, errors=errors, progress=False
+            mechanism, cases.loads, cases.configurations, options, errors=errors, progress=False
         )
     except ClearancePinError as error:
         notes = getattr(error, "__notes__", [])
@@ -474,7 +468,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
     prepared = prepared_geometry(mechanism)
     geometry = prepared.geometry
-    plan = linear_plan(mechanism, prepared, options["backend"])
+    plan = linear_plan(mechanism, prepared, options.backend)
     fast = fast_terms(prepared) if Method.COMPILED in plan else None
     if fast is not None:
         compiled = _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, errors)
@@ -488,7 +482,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     try:
         wrenches = np.array(
             [
-                prepared.wrenches(mechanism.resolve_loads(case_loads, options["gravity"])).ravel()
+                prepared.wrenches(mechanism.resolve_loads(case_loads, options.gravity)).ravel()
                 for case_loads, _ in cases
             ]
         )
@@ -534,8 +528,8 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
                 multipliers[k],
                 seed.signs,
                 table[k],
-                mechanism.resolve_loads(cases[i][0], options["gravity"]),
-                options["outputs"],
+                mechanism.resolve_loads(cases[i][0], options.gravity),
+                options.outputs,
             )
         x_all[group[verified]] = x[verified]
         batched[group[verified]] = True
@@ -593,7 +587,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
             np.array([m.translation for m in oMi])[None],
             False,
             cases.load_column(),
-            options["gravity"],
+            options.gravity,
         )
 
     arrays = {"x": x_all, "batched": batched, "torsor_maps": torsor_maps, "stacked": stacked}
@@ -609,7 +603,7 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
     if seed is None:
         return None
     try:  # the loads every case shares after its own (gravity); the first case resolved them
-        appended = mechanism.resolve_loads((), options["gravity"])
+        appended = mechanism.resolve_loads((), options.gravity)
     except ClearancePinError:
         return None
     column = cases.load_column()  # cases: the Cases of solve_many
@@ -638,7 +632,7 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
     return EquilibriumBatch(
         items,
         arrays,
-        lambda i: _compiled_item(fast, rows[i - 1], (*column[i], *appended), options["outputs"]),
+        lambda i: _compiled_item(fast, rows[i - 1], (*column[i], *appended), options.outputs),
     )
 
 
@@ -672,7 +666,7 @@ def _compiled_answers(mechanism, fast, rows, batched, cases, options) -> Stacked
         np.array([m.translation for m in oMi])[None],
         False,
         cases.load_column(),
-        options["gravity"],
+        options.gravity,
         given,
     )
 

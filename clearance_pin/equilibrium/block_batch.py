@@ -39,6 +39,7 @@ from .kkt import RESIDUAL_NAMES
 from .linear_answer import assemble_linear
 from .load_table import LoadTable, LoadVectors, body_wrenches, load_table
 from .method import Method
+from .options import SolveOptions
 from .outputs import resolve_outputs
 from .prepared import PreparedGeometry, prepared_geometry
 from .reduction import loaded_problem
@@ -152,7 +153,7 @@ def _structure(mechanism: Mechanism) -> tuple[PreparedGeometry, BlockStructure] 
 def solve_load_cases(
     mechanism: Mechanism,
     cases: Cases,
-    options: dict[str, Any],
+    options: SolveOptions,
     errors: str,
     progress: Progress,
 ) -> EquilibriumBatch | None:
@@ -161,7 +162,7 @@ def solve_load_cases(
     if found is None:
         return None
     prepared, structure = found
-    table = load_table(mechanism, cases.load_column(), options["gravity"])
+    table = load_table(mechanism, cases.load_column(), options.gravity)
     objectives = _load_case_objectives(mechanism, prepared, table)
     return _finish(
         mechanism,
@@ -216,7 +217,7 @@ def _load_case_objectives(
 def solve_configurations(
     mechanism: Mechanism,
     cases: Cases,
-    options: dict[str, Any],
+    options: SolveOptions,
     errors: str,
     progress: Progress,
 ) -> EquilibriumBatch | None:
@@ -233,10 +234,10 @@ def solve_configurations(
         not isinstance(cases.loads, LoadVectors) and all(loads is None for loads in cases.loads)
     )
     if shared:  # one load table, repeated (the loads are the same at every point)
-        one = load_table(mechanism, [None], options["gravity"])
+        one = load_table(mechanism, [None], options.gravity)
         table = _repeated(one, len(cases))
     else:
-        table = load_table(mechanism, cases.load_column(), options["gravity"])
+        table = load_table(mechanism, cases.load_column(), options.gravity)
     wrenches, moments = body_wrenches(table, rotations, translations, prepared.bodies, True)
     maps = tree_maps(mechanism, prepared.geometry)
     gradients = tree_gradients(maps, rotations, translations, wrenches)
@@ -260,7 +261,7 @@ def solve_blocks(
     mechanism: Mechanism,
     cases: Cases,
     along: bool,
-    options: dict[str, Any],
+    options: SolveOptions,
     errors: str,
     progress: Progress,
 ) -> EquilibriumBatch | None:
@@ -291,7 +292,7 @@ def _repeated(table: LoadTable, count: int) -> LoadTable:
 def _finish(
     mechanism: Mechanism,
     cases: Cases,
-    options: dict[str, Any],
+    options: SolveOptions,
     errors: str,
     progress: Progress,
     nominal: PreparedGeometry,
@@ -335,7 +336,7 @@ class Assembler:
     def __init__(
         self,
         mechanism: Mechanism,
-        options: dict[str, Any],
+        options: SolveOptions,
         nominal: PreparedGeometry,
         structure: BlockStructure,
         terms: Objectives,
@@ -409,7 +410,7 @@ class Assembler:
             translations,
             self.along,
             self.cases.load_column(),
-            self.options["gravity"],
+            self.options.gravity,
         )
 
 
@@ -453,7 +454,7 @@ def _closed_and_verified(
 
 def _item(
     mechanism: Mechanism,
-    options: dict[str, Any],
+    options: SolveOptions,
     prepared: PreparedGeometry,
     structure: BlockStructure,
     terms: Objectives,
@@ -472,9 +473,9 @@ def _item(
         float(terms.load_sizes[i]),
         float(terms.shares[i]),
     )
-    gravity = options["gravity"]
+    gravity = options.gravity
     resolved = mechanism.resolve_loads(case_loads, False if gravity is False else gravity)
-    outputs = options.get("outputs")
+    outputs = options.outputs
     return assemble_linear(
         prepared,
         problem,

@@ -10,48 +10,26 @@ The loads are resolved and checked by the caller (the mechanism's load front end
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from ..errors import ClearancePinError, NearSingularError, SolverError
+from .options import SolveOptions
 from .outputs import resolve_outputs
 from .result import Equilibrium
 from .second_order import estimate_difference
 from .solve import solve_linear
 
-TOL = 1e-12
-"""The optimiser's default tolerance (dimensionless, on clearance-scaled unknowns)."""
-
-DEFAULTS = {
-    "exact": False,
-    "gravity": None,
-    "tol": TOL,
-    "backend": "auto",
-    "accuracy": 1e-9,
-    "warm_start": True,
-    "outputs": None,
-}
-
 
 def solve_case(
-    mechanism: Any,
-    resolved: Any,
-    exact: bool | str,
-    q: np.ndarray | None,
-    tol: float,
-    backend: str,
-    accuracy: float,
-    warm_start: bool,
-    outputs: Any = None,
+    mechanism: Any, resolved: Any, q: np.ndarray | None, options: SolveOptions
 ) -> Equilibrium:
     """The equilibrium of ``mechanism`` under the resolved loads ``resolved`` at ``q`` (None:
-    nominal), options as :meth:`~clearance_pin.mechanism.Mechanism.solve` takes them."""
+    nominal) with ``options`` (checked by the entry point)."""
     try:
-        return _formulated(mechanism, resolved, exact, q, tol, backend, accuracy, warm_start,
-                           outputs)  # fmt: skip
+        return _formulated(mechanism, resolved, q, options)
     except (np.linalg.LinAlgError, OverflowError, FloatingPointError, ValueError) as exc:
         if isinstance(exc, ClearancePinError):
             raise
@@ -62,27 +40,23 @@ def solve_case(
         ) from None
 
 
-def solve_with_options(
-    mechanism: Any, loads: Any, q: Any, options: Mapping[str, Any]
-) -> Equilibrium:
+def solve_with_options(mechanism: Any, loads: Any, q: Any, options: SolveOptions) -> Equilibrium:
     """:func:`solve_case` of one batch case: its ``loads`` (None: the model's) resolved with the
-    ``gravity`` option, the other options of ``solve`` (checked by the batch's front door)."""
-    chosen = {**DEFAULTS, **options}
-    gravity = chosen["gravity"]
-    resolved = mechanism.resolve_loads(loads, False if gravity is False else gravity)
+    ``gravity`` option."""
+    resolved = mechanism.resolve_loads(loads, options.gravity)
     configuration = None if q is None else np.asarray(q, dtype=float)
-    return solve_case(mechanism, resolved, chosen["exact"], configuration, chosen["tol"],
-                      chosen["backend"], chosen["accuracy"], chosen["warm_start"],
-                      chosen["outputs"])  # fmt: skip
+    return solve_case(mechanism, resolved, configuration, options)
 
 
 def _formulated(
-    mechanism: Any, resolved: Any, exact: bool | str, q: np.ndarray | None, tol: float,
-    backend: str, accuracy: float, warm_start: bool, outputs: Any,
-) -> Equilibrium:  # fmt: skip
-    points = resolve_outputs(mechanism, resolved, outputs)
+    mechanism: Any, resolved: Any, q: np.ndarray | None, options: SolveOptions
+) -> Equilibrium:
+    exact, tol, accuracy = options.exact, options.tol, options.accuracy
+    points = resolve_outputs(mechanism, resolved, options.outputs)
     try:
-        linear = solve_linear(mechanism, resolved, q, tol, backend, warm_start, points)
+        linear = solve_linear(
+            mechanism, resolved, q, tol, options.backend, options.warm_start, points
+        )
     except NearSingularError as near:
         if not exact:
             raise
@@ -137,4 +111,4 @@ def exact_from_linear(
     return answer
 
 
-__all__ = ["DEFAULTS", "TOL", "exact_from_linear", "solve_case", "solve_with_options"]
+__all__ = ["exact_from_linear", "solve_case", "solve_with_options"]

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -23,9 +24,10 @@ import numpy as np
 from ..arguments import (
     LARGEST_MAGNITUDE,
     SMALLEST_LOAD,
+    check_case,
     check_configurations,
+    check_errors,
     check_load_magnitudes,
-    check_solve,
 )
 from ..errors import ArgumentError, ClearancePinError, SolverError
 from ..model.loads import PointForce, Torque, with_vector
@@ -35,6 +37,7 @@ from .fast_path import BoundLoads, FastTerms, fast_terms, kernel_installed
 from .formulation import solve_case
 from .load_table import LoadVectors
 from .method import Method
+from .options import DEFAULT_OPTIONS, SolveOptions
 from .outputs import resolve_outputs
 from .plan import plan_linear
 from .prepared import prepared_geometry
@@ -58,19 +61,15 @@ class Resolver:
         mechanism: Any,
         loads: Any = None,
         q: Any = None,
-        gravity: Any = None,
-        tol: float = 1e-12,
-        backend: str = "auto",
-        warm_start: bool = True,
-        outputs: Any = None,
-        exact: bool | str = False,
-        accuracy: float = 1e-9,
+        options: SolveOptions = DEFAULT_OPTIONS,
     ) -> None:
-        self._q = check_solve(
-            mechanism, loads, exact, q, gravity, tol, backend, accuracy, warm_start, outputs
-        )
+        """``options`` checked by the caller (:meth:`Mechanism.resolver`)."""
+        self._q = check_case(mechanism, loads, q)
+        self.options = options
+        backend, warm_start = options.backend, options.warm_start
+        exact, outputs = options.exact, options.outputs
         self.mechanism = mechanism
-        self.loads = mechanism.resolve_loads(loads, False if gravity is False else gravity)
+        self.loads = mechanism.resolve_loads(loads, options.gravity)
         self._varying = [
             i for i, load in enumerate(self.loads) if isinstance(load, (PointForce, Torque))
         ]
@@ -85,8 +84,6 @@ class Resolver:
         self._largest_value = LARGEST_MAGNITUDE / max(1.0, farthest)
         self._points = resolve_outputs(mechanism, self.loads, outputs)
         self._prepared = prepared_geometry(mechanism, self._q)  # kept: valid while we hold it
-        self._options = (tol, backend, warm_start)
-        self._exact = (exact, accuracy, outputs)
         # the plan's structure of these loads (:func:`.plan.plan_linear`), read once
         self._plan = functools.partial(
             plan_linear,
@@ -115,27 +112,23 @@ class Resolver:
         largest = float(np.abs(vector).max())
         if largest > self._largest_value or 0.0 < largest < SMALLEST_LOAD:
             check_load_magnitudes(self._loads_with(vector), "values")
-        mechanism, (tol, backend, warm_start) = self.mechanism, self._options
+        mechanism, options = self.mechanism, self.options
         if self._compiled and Method.COMPILED in self._plan(
             solved_before=bool(mechanism.cache.warm), kernel=kernel_installed()
         ):
             answer = self._resolve_compiled(vector)
             if answer is not None:
                 return answer
-        exact, accuracy, outputs = self._exact
         try:
-            if exact:  # the exact model, from the resolved loads
-                return solve_case(
-                    mechanism, self._loads_with(vector), exact, self._q, tol, backend, accuracy,
-                    warm_start, outputs,
-                )  # fmt: skip
+            if options.exact:  # the exact model, from the resolved loads
+                return solve_case(mechanism, self._loads_with(vector), self._q, options)
             return solve_linear(
                 mechanism,
                 self._loads_with(vector),
                 self._q,
-                tol,
-                backend,
-                warm_start,
+                options.tol,
+                options.backend,
+                options.warm_start,
                 self._points,
                 self._prepared,
             )
@@ -173,19 +166,12 @@ class Resolver:
             poses = self._poses(configurations)
             vectors = np.tile(vectors, (len(poses), 1))
             poses = [q for q in poses for _ in range(len(vectors) // len(poses))]
-        tol, backend, warm_start = self._options
-        exact, accuracy, outputs = self._exact
+        check_errors(errors)
         return solve_many(
             self.mechanism,
             LoadVectors(self.loads, vectors),
             poses,
-            exact=exact,
-            gravity=False,  # resolved: the loads carry it
-            tol=tol,
-            backend=backend,
-            accuracy=accuracy,
-            warm_start=warm_start,
-            outputs=outputs,
+            replace(self.options, gravity=False),  # resolved: the loads carry it
             errors=errors,
             progress=progress,
         )
