@@ -7,12 +7,14 @@ clearance or nominal configuration of the same structure.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
+from concurrent.futures import Executor
 from dataclasses import dataclass, field, replace
-from typing import Unpack
+from typing import TYPE_CHECKING, Any, TypeVar, Unpack
 
 import numpy as np
 import pinocchio as pin
+from numpy.typing import ArrayLike
 
 from .arguments import (
     check_case,
@@ -35,12 +37,19 @@ from .errors import (
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
 from .kinematics.placements import placements_without_data
 from .model import plausibility
-from .model.couplings import coupled
+from .model.couplings import Coupling, coupled
+from .model.dimensions import Dimension
 from .model.footprint import DATA_KEPT_UP_TO, check_fits, data_bytes
 from .model.frames import frame_id as find_frame
 from .model.joints import LoopJoint, TreeJoint
 from .model.loads import Gravity, Load, PointForce, Torque
 from .model.stiffness import stiff_joints
+
+if TYPE_CHECKING:
+    from .equilibrium.batch import EquilibriumBatch
+    from .equilibrium.resolver import Resolver
+
+Joint = TypeVar("Joint", TreeJoint, LoopJoint)
 
 
 @dataclass(frozen=True)
@@ -60,11 +69,11 @@ class Configuration:
     """
 
     q: np.ndarray
-    oMi: tuple
-    oMf: tuple
-    aMc: dict
-    bMc: dict
-    loop_frames: dict = field(default_factory=dict)
+    oMi: tuple[pin.SE3, ...]
+    oMf: tuple[pin.SE3, ...]
+    aMc: dict[str, pin.SE3]
+    bMc: dict[str, pin.SE3]
+    loop_frames: dict[str, tuple[int, int]] = field(default_factory=dict)
 
     def eccentricity(self, loop: LoopJoint | str) -> pin.SE3:
         """The loop joint's (or the loop joint called ``loop``'s) child clearance frame in its
@@ -102,6 +111,8 @@ class Mechanism:
             limit warnings (default: the values in ``q_nominal``).
     """
 
+    _collision_model: Any  # a pin.GeometryModel, its builder, or None
+
     def __init__(
         self,
         model: pin.Model,
@@ -112,12 +123,12 @@ class Mechanism:
         gravity: Gravity | None = None,
         source: str = "<api>",
         name: str = "",
-        collision_model=None,
-        dimensions: tuple = (),
+        collision_model: Any = None,
+        dimensions: tuple[Dimension, ...] = (),
         nominal_given: dict[int, float] | None = None,
         check_values: bool = True,
-        couplings: tuple = (),
-    ):
+        couplings: tuple[Coupling, ...] = (),
+    ) -> None:
         # a long tree is placed without Pinocchio's data (cubic in nv: 1.7 GB at 300 joints)
         self._without_data = not loop_joints and data_bytes(model.nv) > DATA_KEPT_UP_TO
         check_fits(model, source, with_data=not self._without_data)  # before it is allocated
@@ -179,12 +190,17 @@ class Mechanism:
         if not stiff_joints(self.joints):
             return self
 
-        def rigid(joints):
+        def rigid(joints: tuple[Joint, ...]) -> tuple[Joint, ...]:
             return tuple(replace(j, clearance=replace(j.clearance, stiffness=None)) for j in joints)
 
         return self._rebuilt(self.model, rigid(self.tree_joints), rigid(self.loop_joints))
 
-    def _rebuilt(self, model: pin.Model, tree_joints: tuple, loop_joints: tuple) -> Mechanism:
+    def _rebuilt(
+        self,
+        model: pin.Model,
+        tree_joints: tuple[TreeJoint, ...],
+        loop_joints: tuple[LoopJoint, ...],
+    ) -> Mechanism:
         """This mechanism with another model or joints: its loads, gravity, dimensions and
         couplings kept, its values not checked again."""
         return Mechanism(
@@ -207,7 +223,7 @@ class Mechanism:
         return self.cache.data
 
     @property
-    def collision_model(self):
+    def collision_model(self) -> Any:
         """``pin.GeometryModel`` of the URDF's collision geometry, or None without any.
 
         Built on first use when the mechanism was given a builder (a callable of the model, as
@@ -219,7 +235,7 @@ class Mechanism:
         return self._collision_model
 
     @collision_model.setter
-    def collision_model(self, geometry) -> None:
+    def collision_model(self, geometry: Any) -> None:
         self._collision_model = geometry
 
     # -- configuration ---------------------------------------------------------------------
@@ -251,7 +267,7 @@ class Mechanism:
                 # (a misaligned housing) keeps a residual, which must not re-close on every call.
                 # Keyed by the model and joints, so a copy with other dimensions starts afresh.
                 owner = (self.model, self.tree_joints, self.loop_joints)
-                cache: tuple[tuple, dict[bytes, np.ndarray]] | None = getattr(
+                cache: tuple[tuple[Any, ...], dict[bytes, np.ndarray]] | None = getattr(
                     self, "_closed_for", None
                 )
                 if cache is None or any(a is not b for a, b in zip(cache[0], owner)):
@@ -323,14 +339,18 @@ class Mechanism:
         return self._length_scale
 
     # -- loads ----------------------------------------------------------------------------
-    def resolve_loads(self, loads=None, gravity=None) -> tuple[Load, ...]:
+    def resolve_loads(
+        self, loads: Iterable[object] | None = None, gravity: bool | Gravity | None = None
+    ) -> tuple[Load, ...]:
         """The loads of a solve: ``loads`` (default: the model's) plus gravity if switched on."""
-        chosen = self.loads if loads is None else tuple(loads)
-        for load in chosen:
+        checked: list[Load] = []
+        for load in self.loads if loads is None else loads:
             if not isinstance(load, (PointForce, Torque, Gravity)):
                 raise LoadError(repr(load), "expected PointForce, Torque or Gravity")
             if not isinstance(load, Gravity) and load.link not in self.link_frames:
                 raise LoadError(f"on {load.link!r}", self._not_a_link(load.link))
+            checked.append(load)
+        chosen = tuple(checked)
         if gravity is True:
             gravity = self.gravity or Gravity()
         elif gravity is None:
@@ -373,7 +393,13 @@ class Mechanism:
         return link.name, (link.placement.inverse() * placed.placement).translation
 
     # -- solving --------------------------------------------------------------------------
-    def solve(self, loads=None, *, q=None, **options: Unpack[SolveKeywords]) -> Equilibrium:
+    def solve(
+        self,
+        loads: Iterable[Load] | None = None,
+        *,
+        q: ArrayLike | None = None,
+        **options: Unpack[SolveKeywords],
+    ) -> Equilibrium:
         """Quasi-static equilibrium of the parts in their joint clearances.
 
         Args:
@@ -396,7 +422,9 @@ class Mechanism:
         check_load_magnitudes(resolved)
         return solve_case(self, resolved, configuration, chosen)
 
-    def envelope(self, output, q=None, exact: bool = False, **options):
+    def envelope(
+        self, output: Any, q: ArrayLike | None = None, exact: bool = False, **options: Any
+    ) -> Any:
         """The clearance envelope of ``output`` (a frame, ``"link@[x y z]"`` or ``(link, point)``):
         how far it can move inside the play whatever the load, certified (maxima with lower and
         upper bounds); see :func:`clearance_pin.envelope.envelope` (options: kinds, tol,
@@ -411,7 +439,13 @@ class Mechanism:
         )
         return envelope(self, output, q=q, exact=exact, **options)
 
-    def accuracy(self, output: str, configurations, payloads=(0.0,), gravity=None):
+    def accuracy(
+        self,
+        output: str,
+        configurations: ArrayLike,
+        payloads: Any = (0.0,),
+        gravity: bool | Gravity | None = None,
+    ) -> Any:
         """The accuracy map of ``output`` (a Pinocchio frame, the tool) over poses
         ``configurations`` (Q, nq) and ``payloads`` (masses [kg] at the output, or load cases):
         its displacement (Q, P, 3) and each joint's and source's share of it; see
@@ -420,7 +454,13 @@ class Mechanism:
 
         return accuracy_map(self, output, configurations, payloads, gravity)
 
-    def resolver(self, loads=None, *, q=None, **options: Unpack[SolveKeywords]):
+    def resolver(
+        self,
+        loads: Iterable[Load] | None = None,
+        *,
+        q: ArrayLike | None = None,
+        **options: Unpack[SolveKeywords],
+    ) -> Resolver:
         """A :class:`~clearance_pin.equilibrium.resolver.Resolver`: ``loads`` (default: the
         model's) built once, re-solved with new force and torque vectors,
         ``resolver.solve(values)`` or many at once, ``resolver.solve_many(values)`` (options:
@@ -431,15 +471,15 @@ class Mechanism:
 
     def solve_many(
         self,
-        loads=None,
-        configurations=None,
+        loads: Iterable[Iterable[Load] | None] | None = None,
+        configurations: Iterable[ArrayLike] | None = None,
         *,
-        executor=None,
+        executor: Executor | None = None,
         chunks: int | None = None,
         errors: str = "raise",
         progress: bool | None = None,
         **options: Unpack[SolveKeywords],
-    ):
+    ) -> EquilibriumBatch:
         """Many equilibria, warm-started in sequence; see
         :func:`clearance_pin.equilibrium.batch.solve_many` (options: those of :meth:`solve`
         but ``q``; executor, chunks, errors, progress as there)."""
@@ -458,7 +498,7 @@ class Mechanism:
             executor=executor, chunks=chunks, errors=errors, progress=progress,
         )  # fmt: skip
 
-    def joint(self, name: str):
+    def joint(self, name: str) -> TreeJoint | LoopJoint:
         """The tree or loop joint called ``name``."""
         if name not in self.joints:
             raise ClearancePinError(

@@ -364,7 +364,7 @@ def solve_many(
     chunks: int | None = None,
     errors: str = "raise",
     progress: bool | None = None,
-):
+) -> EquilibriumBatch:
     """Solve many load cases and/or nominal configurations of one mechanism (the core of
     :meth:`Mechanism.solve_many` and ``resolver.solve_many``, which check the arguments).
 
