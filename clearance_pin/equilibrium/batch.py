@@ -23,6 +23,7 @@ from ..arguments import check_errors
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.couplings import coupled
 from ..model.frames import frame_id as find_frame
+from ..model.stiffness import stiff_joints
 from ..progress import Progress
 from .batch_answers import StackedAnswers, contact_forces, frame_displacements
 from .batch_newton import batched_newton, stacked_evaluation
@@ -392,6 +393,10 @@ def solve_many(
     check_errors(errors)
     cases = _cases(mechanism, loads, configurations)
     exact, backend = options.exact, options.backend
+    if not exact and not mechanism.loop_joints and stiff_joints(mechanism.joints):
+        from .elastic_batch import solve_superposed  # a tree's springs: its rigid twin's batch
+
+        return solve_superposed(mechanism, cases, options, errors, progress, executor, chunks)
     if options.outputs is not None:  # an unknown frame refused now, not in every case
         resolve_outputs(mechanism, (), options.outputs)
     show = progress if progress is not None else (None if len(cases) > 100 else False)

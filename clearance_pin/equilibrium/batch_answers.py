@@ -21,6 +21,7 @@ with the formulas of the item (small-displacement model):
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -174,26 +175,35 @@ def tree_body_twists(
     mechanism: Mechanism, rotations: Array, translations: Array, x: Array
 ) -> Array:
     r"""Body twists (N, bodies, 6) of a tree at N configurations (body placements (N, bodies,
-    3, 3), (N, bodies, 3) [m]): :math:`\xi_i = \xi_{\lambda(i)} + \mathrm{Ad}(oM_i C_k)\,
-    B_k t_k`, with :math:`\mathrm{Ad}(R, p)(v, \omega) = (R v + p \times R \omega, R \omega)`
-    (as :meth:`.tree_point.TreePoint.body_twists` forms them one by one)."""
-    model = mechanism.model
-    count = len(x)
-    twists = np.zeros((count, model.njoints, 6))
+    3, 3), (N, bodies, 3) [m]) from the unknowns x (N, n): each joint's torsor
+    :math:`B_k t_k` composed along the tree (:func:`torsor_twists`)."""
+    torsors = {}
     start = 0
-    by_id = {joint.joint_id: joint for joint in mechanism.tree_joints}
-    starts = {}
     for joint in mechanism.tree_joints:
-        width = tree_joint_basis(joint).shape[1]
-        starts[joint.joint_id] = (start, start + width)
-        start += width
+        basis = tree_joint_basis(joint)
+        torsors[joint.name] = x[:, start : start + basis.shape[1]] @ basis.T
+        start += basis.shape[1]
+    return torsor_twists(mechanism, rotations, translations, torsors)
+
+
+def torsor_twists(
+    mechanism: Mechanism, rotations: Array, translations: Array, torsors: Mapping[str, Array]
+) -> Array:
+    r"""Body twists (N, bodies, 6) at the world origin of a tree whose joints' torsors are
+    ``torsors`` (name -> (N, 6) [m, rad], clearance frames): :math:`\xi_i = \xi_{\lambda(i)} +
+    \mathrm{Ad}(oM_i C_k)\, \tau_k`, with :math:`\mathrm{Ad}(R, p)(v, \omega) = (R v + p \times
+    R \omega, R \omega)` (as :meth:`.tree_point.TreePoint.body_twists` forms them one by one);
+    body placements (K, bodies, 3, 3), (K, bodies, 3) [m], K = N (a trajectory) or 1."""
+    model = mechanism.model
+    count = len(next(iter(torsors.values()))) if torsors else len(rotations)
+    twists = np.zeros((count, model.njoints, 6))
+    by_id = {joint.joint_id: joint for joint in mechanism.tree_joints}
     for i in range(1, model.njoints):  # a parent before its children
         joint = by_id[i]
-        first, stop = starts[i]
-        local = x[:, first:stop] @ tree_joint_basis(joint).T  # B_k t_k (N, 6), clearance frame
-        turn = rotations[:, i] @ joint.rotation  # R_i C_k (N, 3, 3)
-        omega = np.einsum("nij,nj->ni", turn, local[:, 3:])
-        v = np.einsum("nij,nj->ni", turn, local[:, :3]) + np.cross(translations[:, i], omega)
+        local = torsors[joint.name]  # (N, 6), clearance frame
+        turn = rotations[:, i] @ joint.rotation  # R_i C_k (K, 3, 3)
+        omega = (turn @ local[:, 3:, None])[..., 0]
+        v = (turn @ local[:, :3, None])[..., 0] + np.cross(translations[:, i], omega)
         twists[:, i, :3] = twists[:, model.parents[i], :3] + v
         twists[:, i, 3:] = twists[:, model.parents[i], 3:] + omega
     return twists
@@ -218,5 +228,6 @@ __all__ = [
     "body_twists",
     "contact_forces",
     "frame_displacements",
+    "torsor_twists",
     "tree_body_twists",
 ]

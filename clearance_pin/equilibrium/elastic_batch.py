@@ -1,0 +1,207 @@
+r"""Batches of a tree with joint stiffness, by superposition on arrays (:mod:`.elastic_tree`).
+
+In a tree no contact reads an elastic unknown, so every case splits into the answer of the rigid
+twin (:func:`.elastic_tree.play_twin`, solved as a batch by its own engines: closed forms, the
+compiled kernel, the NumPy batch) and each spring's deflection under its joint's reaction,
+
+.. math::  e_j = -K_j^{+} R_j ,
+
+with :math:`R_j` (N, 6) the wrench the parent exerts on the child through joint j in its
+clearance frame, read for every case at once from the twin's batch (statics of the subtree: the
+same with or without springs in a tree), and :math:`K_j^{+}` the compliance on the directions that
+deflect (:func:`.elastic_tree.spring_deflections`). A joint's torsor is its play's plus
+:math:`e_j`; the bodies' twists are composed from the torsors along the tree
+(:func:`.batch_answers.torsor_twists`); the energy is the play's less
+:math:`\tfrac12 \sum_j e_j^T K_j e_j`. Reactions, contact forces and drive torques are the twin's.
+An item is assembled when read, as a single solve assembles it (:func:`.elastic_tree.superposed`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from concurrent.futures import Executor
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..model.stiffness import elastic
+from ..numerics import Array
+from .batch import EquilibriumBatch
+from .batch_answers import torsor_twists
+from .batch_kinematics import body_placements
+from .elastic_tree import play_twin, spring_deflections, superposed
+from .load_table import body_wrenches, load_table
+from .options import SolveOptions
+from .prepared import prepared_geometry
+
+if TYPE_CHECKING:
+    from ..model.mechanism_parts import MechanismParts as Mechanism
+    from .batch import Cases
+
+
+def solve_superposed(
+    mechanism: Mechanism,
+    cases: Cases,
+    options: SolveOptions,
+    errors: str,
+    progress: bool | None,
+    executor: Executor | None = None,
+    chunks: int | None = None,
+) -> ElasticTreeBatch:
+    """The linear answers of ``cases`` of ``mechanism`` (a tree with stiffness): the rigid twin's
+    batch (in ``executor``'s tasks when one is given) plus the springs (module docstring)."""
+    from .batch import solve_many
+
+    play = solve_many(
+        play_twin(mechanism), cases.loads, cases.configurations, options,
+        executor=executor, chunks=chunks, errors=errors, progress=progress,
+    )  # fmt: skip
+    return ElasticTreeBatch(mechanism, play, cases, options)
+
+
+def subtree_reactions(
+    mechanism: Mechanism, cases: Cases, options: SolveOptions, rotations: Array, translations: Array
+) -> dict[str, Array]:
+    r"""Per tree joint of a tree, its reaction in every case (the parent part's wrench on the
+    child), (N, 6) [N, N m], its clearance frame, moment about the joint centre, from the statics
+    of the subtree it carries, :math:`R_j = -\sum_{b \in \mathrm{subtree}(j)} L_b` (the contact
+    forces inside the subtree are internal): the loads of every case as rows
+    (:func:`.load_table.load_table`), summed per body about the world origin
+    (:func:`.load_table.body_wrenches`), then from the leaves to the root. Body placements (K,
+    bodies, 3, 3), (K, bodies, 3) [m], K = N (a trajectory) or 1."""
+    model = mechanism.model
+    table = load_table(mechanism, cases.load_column(), options.gravity)
+    wrenches, about = body_wrenches(
+        table, rotations, translations, model.njoints, per_case=len(rotations) > 1
+    )
+    force, moment = wrenches[..., :3].copy(), about.copy()  # (N, bodies, 3), world origin
+    for i in range(model.njoints - 1, 0, -1):  # a child before its parent
+        force[:, model.parents[i]] += force[:, i]
+        moment[:, model.parents[i]] += moment[:, i]
+    out = {}
+    for joint in mechanism.tree_joints:
+        i = joint.joint_id
+        axes = rotations[:, i] @ joint.rotation  # the clearance frame's (K, 3, 3)
+        centre = translations[:, i]
+        carried = -force[:, i]
+        turning = -(moment[:, i] - np.cross(centre, force[:, i]))  # about the joint centre
+        local = np.empty((len(force), 6))
+        local[:, :3] = (np.swapaxes(axes, 1, 2) @ carried[:, :, None])[..., 0]
+        local[:, 3:] = (np.swapaxes(axes, 1, 2) @ turning[:, :, None])[..., 0]
+        out[joint.name] = local
+    return out
+
+
+class ElasticTreeBatch(EquilibriumBatch):
+    """The batch of a tree with stiffness: the rigid twin's batch ``play`` and the springs'
+    deflections (module docstring); the readers of :class:`.batch.EquilibriumBatch`."""
+
+    def __init__(
+        self, mechanism: Mechanism, play: EquilibriumBatch, cases: Cases, options: SolveOptions
+    ) -> None:
+        self.mechanism, self.play = mechanism, play
+        self._cases, self._options = cases, options
+        started = time.perf_counter()
+        stiff = [joint for joint in mechanism.tree_joints if elastic(joint.clearance)[1].size]
+        reactions = subtree_reactions(mechanism, cases, options, *self._placements())
+        self._springs = {
+            joint.name: spring_deflections(joint, reactions[joint.name]) for joint in stiff
+        }
+        self._started = started
+        super().__init__([self._item_builder(i) for i in range(len(play))])
+
+    def _item_builder(self, index: int) -> Any:
+        def build() -> Any:
+            answer = self.play[index]
+            if isinstance(answer, Exception):
+                return answer
+            loads, q = self._cases[index]
+            mechanism = self.mechanism
+            prepared = prepared_geometry(mechanism, None if q is None else np.asarray(q))
+            resolved = mechanism.resolve_loads(loads, self._options.gravity)
+            return superposed(mechanism, prepared, resolved, answer, self._started)
+
+        return build
+
+    def torsors(self, joint: str) -> Array:
+        """Torsor of ``joint`` (play and spring) in every case, (N, 6) [m, rad]."""
+        return self.play.torsors(joint) + self.deflections(joint)
+
+    def deflections(self, joint: str) -> Array:
+        """The spring deflection of ``joint`` in every case, (N, 6) [m, rad] (zero for a rigid
+        joint; NaN for failed cases)."""
+        self._check_joint(joint)
+        spring = self._springs.get(joint)
+        if spring is None:
+            return np.where(np.isfinite(self.play.torsors(joint)), 0.0, np.nan)
+        return spring
+
+    def frame_displacements(self, frame: str) -> tuple[Array, Array]:
+        """World displacement of a Pinocchio frame in every case (translations (N, 3) [m],
+        rotations (N, 3) [rad]), the bodies' twists composed from the joints' torsors."""
+        from ..errors import NotFoundError
+        from ..model.frames import frame_id as find_frame
+
+        model = self.mechanism.model
+        frame_id = find_frame(model, frame)
+        if frame_id is None:
+            names = [f.name for f in model.frames]
+            raise NotFoundError("frame", frame, names, self.mechanism.name)
+        rotations, translations = self._placements()
+        torsors = {joint.name: self.torsors(joint.name) for joint in self.mechanism.tree_joints}
+        twists = torsor_twists(self.mechanism, rotations, translations, torsors)
+        placed = model.frames[frame_id]
+        body = placed.parentJoint
+        rotation = rotations[:, body]
+        origin = rotation @ placed.placement.translation + translations[:, body]
+        translation = twists[:, body, :3] + np.cross(twists[:, body, 3:], origin)
+        return translation, twists[:, body, 3:].copy()
+
+    def _placements(self) -> tuple[Array, Array]:
+        """Body placements (K, bodies, 3, 3), (K, bodies, 3) [m]: K = N along a trajectory, 1 at
+        the nominal configuration."""
+        configurations: Sequence[Any] | None = self._cases.configurations
+        if configurations is None:
+            oMi = prepared_geometry(self.mechanism).configuration.oMi
+            rotations = np.array([m.rotation for m in oMi])[None]
+            translations = np.array([m.translation for m in oMi])[None]
+            return rotations, translations
+        nominal = self.mechanism.q_nominal
+        return body_placements(
+            self.mechanism, [nominal if q is None else q for q in configurations]
+        )
+
+    def reactions(self, joint: str, frame: str = "joint", part: str | None = None) -> Array:
+        """The twin's (:meth:`.batch.EquilibriumBatch.reactions`): the same statics."""
+        return self.play.reactions(joint, frame, part)
+
+    def contact_forces(self, joint: str) -> Array:
+        """The twin's: the same contact forces."""
+        return self.play.contact_forces(joint)
+
+    def contact_points(self, joint: str) -> tuple[str, ...]:
+        return self.play.contact_points(joint)
+
+    def drive_torques(self) -> dict[str, Array]:
+        return self.play.drive_torques()
+
+    @property
+    def ok(self) -> Array:
+        return self.play.ok
+
+    @property
+    def energy(self) -> Array:
+        """Potential per case [J]: the play's less the springs' :math:`\\tfrac12 e^T K e`."""
+        energy = np.array(self.play.energy, dtype=float)
+        for name, spring in self._springs.items():
+            directions, stiffnesses = elastic(self.mechanism.joints[name].clearance)
+            coordinates = spring @ directions  # e along each deflecting direction
+            energy -= 0.5 * (coordinates**2 * stiffnesses).sum(axis=1)
+        return energy
+
+    def _mechanism(self) -> Any:
+        return self.mechanism
+
+
+__all__ = ["ElasticTreeBatch", "solve_superposed"]

@@ -1,0 +1,119 @@
+"""Batches of a tree with joint stiffness (equilibrium/elastic_batch.py): the rigid twin's batch
+plus each spring's deflection under its joint's reaction from the subtree's statics, on arrays.
+Every whole-batch reader gives the answers of single solves (each solved on a mechanism of its
+own, the superposition of elastic_tree.py), and the tool's deflection of the springs alone is
+J K^-1 J^T F from Pinocchio's own Jacobian (independent of the solver)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import clearance_pin
+from clearance_pin import PointForce
+
+ROOT = Path(__file__).resolve().parents[1]
+DRIVE = [4e4, 3e4, 2e4, 8e3, 6e3, 5e3]  # [N m/rad], shoulder to wrist
+
+
+def _arm(play: bool) -> clearance_pin.Mechanism:
+    """The bundled 6R arm with a drive stiffness on every joint, with or without its play."""
+    text = (ROOT / "models" / "arm_6r.urdf").read_text()
+    lines = iter(DRIVE)
+    text = re.sub(
+        r'driven="true"', lambda _: f'driven="true" drive_stiffness="{next(lines)!r}"', text
+    )
+    if not play:  # no type: a driven joint without play (docs/model-format.md)
+        head, block = text.split("<clearance_pin>")
+        block = re.sub(r' (type|radial_clearance|axial_clearance|length)="[^"]*"', "", block)
+        text = head + "<clearance_pin>" + block
+    return clearance_pin.loads(text, source="arm_6r with drive stiffness")
+
+
+@pytest.mark.parametrize("play", [True, False])
+def test_the_batch_reads_as_single_solves(play):
+    """Load cases at one pose and a payload x pose grid: torsors, deflections, the tool's
+    displacement, reactions, energies and items equal single solves to round-off."""
+    arm, single = _arm(play), _arm(play)
+    tool = next(load for load in arm.loads if isinstance(load, PointForce))
+    rng = np.random.default_rng(2)
+    values = np.array([0.0, 0.0, -50.0]) + rng.normal(0.0, 20.0, (40, 3))
+    resolver = arm.resolver([tool], gravity=True)
+    poses = [arm.q_nominal + 0.3 * rng.standard_normal(arm.model.nq) for _ in range(3)]
+    for batch, cases in (
+        (resolver.solve_many(values), [(n, None) for n in range(40)]),
+        (
+            resolver.solve_many(values[:4], configurations=poses),
+            [(n, q) for q in poses for n in range(4)],
+        ),
+    ):
+        assert batch.ok.all()
+        shifts = batch.frame_displacements("tool")
+        energies = batch.energy
+        for i in (0, 5, len(cases) - 1):
+            n, q = cases[i]
+            load = PointForce(tool.link, values[n], tool.point)
+            expected = single.solve([load], q=q, gravity=True)
+            scale = max(np.abs(expected.frame_displacement("tool")[0]).max(), 1e-9)
+            np.testing.assert_allclose(
+                shifts[0][i], expected.frame_displacement("tool")[0], rtol=0, atol=1e-9 * scale
+            )
+            np.testing.assert_allclose(
+                shifts[1][i], expected.frame_displacement("tool")[1], rtol=0, atol=1e-9 * scale
+            )
+            assert energies[i] == pytest.approx(expected.energy, rel=1e-9)
+            for joint in arm.joints:
+                np.testing.assert_allclose(
+                    batch.torsors(joint)[i], expected.torsors[joint], rtol=0, atol=1e-9 * scale
+                )
+                np.testing.assert_allclose(
+                    batch.deflections(joint)[i],
+                    expected.deflection(joint),
+                    rtol=0,
+                    atol=1e-9 * scale,
+                )
+                np.testing.assert_allclose(
+                    batch.reactions(joint)[i],
+                    expected.reaction(joint).wrench,
+                    rtol=0,
+                    atol=1e-9 * 100,
+                )
+                np.testing.assert_allclose(
+                    batch[i].torsors[joint], expected.torsors[joint], rtol=0, atol=1e-9 * scale
+                )
+
+
+def test_the_springs_alone_give_pinocchio_compliance():
+    """Without play: the tool's displacement in every case is J K^-1 J^T F at the tool point,
+    J Pinocchio's LOCAL_WORLD_ALIGNED Jacobian of a frame at that point (gravity off)."""
+    arm = _arm(play=False)
+    tool = next(load for load in arm.loads if isinstance(load, PointForce))
+    rng = np.random.default_rng(4)
+    values = rng.normal(0.0, 40.0, (30, 3))
+    batch = arm.resolver([tool], gravity=False).solve_many(values)
+    model = arm.model.copy()
+    frame = model.getFrameId(tool.link)
+    placed = model.frames[frame]
+    point = pin.Frame(
+        "tool_point",
+        placed.parentJoint,
+        frame,
+        placed.placement * pin.SE3(np.eye(3), np.asarray(tool.point)),
+        pin.FrameType.OP_FRAME,
+    )
+    point_id = model.addFrame(point)
+    data = model.createData()
+    jacobian = pin.computeFrameJacobian(
+        model, data, arm.q_nominal, point_id, pin.LOCAL_WORLD_ALIGNED
+    )
+    compliance = np.diag(1.0 / np.array(DRIVE))
+    expected = (jacobian @ compliance @ jacobian.T @ np.hstack([values, np.zeros_like(values)]).T).T
+    shifts = batch.frame_displacements(tool.link)
+    assert np.abs(expected[:, :3]).max() > 1e-6  # the springs deflect
+    # the tool link's origin is the load point here (tool.point is its origin)
+    np.testing.assert_allclose(shifts[0], expected[:, :3], rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(shifts[1], expected[:, 3:], rtol=1e-9, atol=1e-15)
