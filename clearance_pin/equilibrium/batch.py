@@ -71,6 +71,8 @@ class EquilibriumBatch(Sequence):
     def __getitem__(self, index):
         if isinstance(index, slice):
             return [self[i] for i in range(*index.indices(len(self)))]
+        if not -len(self._items) <= index < len(self._items):
+            raise IndexError(f"case {index} of a batch of {len(self._items)} cases")
         item = self._items[index]
         if item is None:
             item = self._items[index] = self._build(index % len(self._items))
