@@ -35,6 +35,7 @@ from .kkt import RESIDUAL_NAMES, UNLOADED
 from .linear_answer import assemble_linear
 from .method import Method
 from .options import DEFAULT_OPTIONS, SolveOptions
+from .load_table import uniform_vectors
 from .outputs import resolve_outputs
 from .prepared import prepared_geometry
 from .reactions import FRAMES
@@ -425,6 +426,10 @@ def solve_many(
         return EquilibriumBatch(results)
     workers = getattr(executor, "_max_workers", None) or 2
     count = chunks or min(len(cases), 4 * workers)
+    if cases.loads is not None:  # cases of one layout travel as an array, not as objects
+        vectors = uniform_vectors(cases.loads)
+        if vectors is not None:
+            cases = Cases(vectors, cases.configurations, len(cases))
     bounds = np.linspace(0, len(cases), count + 1).astype(int)
     futures = [
         executor.submit(_solve_part, mechanism, cases[a:b], options, errors, int(a))
