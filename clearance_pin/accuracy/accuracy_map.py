@@ -172,8 +172,9 @@ def accuracy_map(
             [loads] * count, configurations=poses, gravity=gravity, errors="return"
         )
         ok[:, k] = batch.ok
-        if not ok[:, k].any():  # no pose solves: a fault of the model or the payload, said once
-            raise batch[0]
+        first = batch[0]
+        if not ok[:, k].any() and isinstance(first, Exception):
+            raise first  # no pose solves: a fault of the model or the payload, said once
         springs = {} if statics is None else subtree_reactions(mechanism, statics, loads, gravity)
         for joint in joints:
             if joint.name not in levers:

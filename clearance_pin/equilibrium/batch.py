@@ -13,9 +13,9 @@ import itertools
 import os
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Executor, ThreadPoolExecutor
-from typing import Any
+from typing import TYPE_CHECKING, Any, overload
 
 import numpy as np
 
@@ -24,23 +24,25 @@ from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.couplings import coupled
 from ..model.frames import frame_id as find_frame
 from ..model.stiffness import stiff_joints
+from ..numerics import Array, Mask
 from ..progress import Progress
 from .batch_answers import StackedAnswers, contact_forces, frame_displacements
 from .batch_newton import batched_newton, stacked_evaluation
 from .batch_reactions import PARTS, stacked_reactions
-from .cone_solver import acceptance
-from .fast_path import WARM_ROUNDS, fast_terms
+from .cone_solver import ConeSolution, acceptance
+from .fast_path import WARM_ROUNDS, FastTerms, fast_terms
 from .formulation import solve_with_options
-from .kkt import RESIDUAL_NAMES, UNLOADED
+from .kkt import RESIDUAL_NAMES, UNLOADED, StackedContacts
 from .linear_answer import assemble_linear
+from .load_table import uniform_vectors
 from .method import Method
 from .options import DEFAULT_OPTIONS, SolveOptions
-from .load_table import uniform_vectors
 from .outputs import resolve_outputs
-from .prepared import prepared_geometry
+from .prepared import PreparedGeometry, prepared_geometry
 from .reactions import FRAMES
 from .reduction import loaded_problem
 from .residuals import verified as measured_ok
+from .result import Equilibrium
 from .solve import linear_plan
 
 BATCH_MINIMUM = 16
@@ -52,7 +54,20 @@ PROBE = 16  # cases that show whether a batched round pays before the rest of it
 THREAD_CASES, THREAD_CHUNKS = 64, 2
 
 
-class EquilibriumBatch(Sequence):
+if TYPE_CHECKING:
+    from ..model.mechanism_parts import MechanismParts as Mechanism
+
+Item = Equilibrium | Exception
+"""A case's answer, or its error (``errors="return"``)."""
+Pending = Item | Callable[[], Item] | None
+"""A case as a batch keeps it: its answer, what assembles it, or None (``build(index)``)."""
+Arrays = dict[str, Any]
+"""A batch's whole-batch arrays: ``x`` (N, n), ``batched`` (N,), ``torsor_maps`` (joint ->
+(6, n)) and ``stacked`` (the :class:`.batch_answers.StackedAnswers`, or what builds them)."""
+FromArrays = Callable[[StackedAnswers], tuple[Array, Mask]]
+
+
+class EquilibriumBatch(Sequence[Item]):
     """The results of :func:`solve_many`: a sequence of equilibria, with whole-batch arrays.
 
     Items are :class:`~clearance_pin.equilibrium.result.Equilibrium` objects (or the error of a
@@ -61,7 +76,12 @@ class EquilibriumBatch(Sequence):
     ``ok``, ``energy`` and ``statuses`` read the whole batch without assembling each item.
     """
 
-    def __init__(self, items: list, arrays: dict | None = None, build=None):
+    def __init__(
+        self,
+        items: list[Any],  # of Pending
+        arrays: Arrays | None = None,
+        build: Callable[[int], Item] | None = None,
+    ) -> None:
         self._items = items
         self._arrays = arrays
         self._build = build
@@ -69,19 +89,29 @@ class EquilibriumBatch(Sequence):
     def __len__(self) -> int:
         return len(self._items)
 
-    def __getitem__(self, index):
+    @overload
+    def __getitem__(self, index: int) -> Item: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[Item]: ...
+
+    def __getitem__(self, index: int | slice) -> Item | list[Item]:
         if isinstance(index, slice):
             return [self[i] for i in range(*index.indices(len(self)))]
         if not -len(self._items) <= index < len(self._items):
             raise IndexError(f"case {index} of a batch of {len(self._items)} cases")
-        item = self._items[index]
-        if item is None:
-            item = self._items[index] = self._build(index % len(self._items))
-        elif callable(item):
-            item = self._items[index] = item()
+        pending: Pending = self._items[index]
+        if pending is None:
+            assert self._build is not None  # None items come with what builds them
+            item = self._build(index % len(self._items))
+        elif callable(pending):
+            item = pending()
+        else:
+            return pending
+        self._items[index] = item
         return item
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[EquilibriumBatch], tuple[list[Item], Arrays | None]]:
         """Pickled with every item assembled (what assembles one is a closure, which does not
         travel) and the whole-batch arrays: a Dask or process task may return a batch."""
         arrays = self._arrays
@@ -92,7 +122,7 @@ class EquilibriumBatch(Sequence):
     def torsors(self, joint: str) -> np.ndarray:
         """Torsor of ``joint`` for every case, (N, 6) [m, rad] (NaN for failed cases)."""
         if self._arrays is not None and joint in self._arrays["torsor_maps"]:
-            values = self._arrays["x"] @ self._arrays["torsor_maps"][joint].T
+            values: Array = self._arrays["x"] @ self._arrays["torsor_maps"][joint].T
             alone = np.flatnonzero(~self._arrays["batched"])  # the cases solved one by one
             values[alone] = self._one_by_one(joint, alone)
             return values
@@ -105,11 +135,12 @@ class EquilibriumBatch(Sequence):
         rows = []
         for i in range(len(self)):
             item = self[i]
-            failed = isinstance(item, Exception)
-            rows.append(np.full(6, np.nan) if failed else item.deflection(joint))
+            rows.append(
+                np.full(6, np.nan) if isinstance(item, Exception) else item.deflection(joint)
+            )
         return np.array(rows).reshape(-1, 6)
 
-    def _one_by_one(self, joint: str, indices) -> np.ndarray:
+    def _one_by_one(self, joint: str, indices: Iterable[int]) -> Array:
         """Torsors of ``joint`` read from the items ``indices`` (NaN for errors), (k, 6)."""
         rows = []
         for i in indices:
@@ -125,7 +156,12 @@ class EquilibriumBatch(Sequence):
             source = self._arrays["stacked"] = source()  # type: ignore[index]
         return source
 
-    def _read(self, shape: tuple, from_arrays, from_item) -> np.ndarray:
+    def _read(
+        self,
+        shape: tuple[int, ...],
+        from_arrays: FromArrays,
+        from_item: Callable[[Equilibrium], Any],
+    ) -> Array:
         """A whole-batch array (N, *shape): ``from_arrays(answers)`` (its rows, and the mask of
         the rows it gives) for the cases solved on stacked arrays, ``from_item(item)`` for the
         cases solved one by one, NaN for errors."""
@@ -153,7 +189,8 @@ class EquilibriumBatch(Sequence):
             names = [f.name for f in mechanism.model.frames]
             raise NotFoundError("frame", frame, names, mechanism.name)
 
-        def from_arrays(answers):
+        def from_arrays(answers: StackedAnswers) -> tuple[Array, Mask]:
+            assert frame_id is not None  # stacked answers carry their mechanism
             return np.hstack(frame_displacements(answers, frame_id)), answers.stacked
 
         both = self._read((6,), from_arrays, lambda item: np.hstack(item.frame_displacement(frame)))
@@ -171,12 +208,12 @@ class EquilibriumBatch(Sequence):
             raise ArgumentError("part", f"None or one of {', '.join(PARTS)}", part)
         self._check_joint(joint)
 
-        def from_arrays(answers):
+        def from_arrays(answers: StackedAnswers) -> tuple[Array, Mask]:
             reactions = stacked_reactions(answers)
             values = reactions.reaction(joint, frame, part)
             return values, answers.stacked & np.all(np.isfinite(values), axis=1)
 
-        def from_item(item):
+        def from_item(item: Equilibrium) -> Any:
             reaction = item.reaction(joint, frame)
             return reaction.wrench if part is None else getattr(reaction, part)
 
@@ -192,13 +229,13 @@ class EquilibriumBatch(Sequence):
         self._check_joint(joint)
         names = self.contact_points(joint)
 
-        def from_arrays(answers):
+        def from_arrays(answers: StackedAnswers) -> tuple[Array, Mask]:
             chosen = [
                 k for k, c in enumerate(answers.prepared.geometry.contacts) if c.joint == joint
             ]
             return contact_forces(answers)[:, chosen], answers.stacked
 
-        def from_item(item):
+        def from_item(item: Equilibrium) -> Array:
             return np.array([c.force for c in item.contacts if c.joint == joint]).reshape(-1, 3)
 
         return self._read((len(names), 3), from_arrays, from_item)
@@ -231,7 +268,7 @@ class EquilibriumBatch(Sequence):
                 out[name] = self.reactions(name, "joint", "drive")[:, component]
         return out
 
-    def _mechanism(self):
+    def _mechanism(self) -> Any:
         answers = self._stacked_answers()
         if answers is not None:
             return answers.mechanism
@@ -249,8 +286,8 @@ class EquilibriumBatch(Sequence):
     def ok(self) -> np.ndarray:
         """Per case: a verified equilibrium (False for errors), (N,)."""
         if self._arrays is not None:
-            flags = self._arrays["batched"].copy()
-            for i in np.flatnonzero(~flags):
+            flags: Mask = self._arrays["batched"].copy()
+            for i in np.flatnonzero(~flags).tolist():
                 item = self[i]
                 flags[i] = not isinstance(item, Exception) and item.ok
             return flags
@@ -273,7 +310,11 @@ class EquilibriumBatch(Sequence):
         return [type(r).__name__ if isinstance(r, Exception) else r.method for r in self]
 
 
-class Cases(Sequence):
+Case = tuple[Any, Any]
+"""A case: its loads (None: the model's) and its configuration (None: the nominal one)."""
+
+
+class Cases(Sequence[Case]):
     """The cases of :func:`solve_many` as two columns, read as (loads, configuration) pairs.
 
     Attributes:
@@ -284,13 +325,21 @@ class Cases(Sequence):
     the garbage collector over every load object of the batch (a tenth of a second).
     """
 
-    def __init__(self, loads: Sequence | None, configurations: list | None, count: int):
+    def __init__(
+        self, loads: Sequence[Any] | None, configurations: Sequence[Any] | None, count: int
+    ) -> None:
         self.loads, self.configurations, self._count = loads, configurations, count
 
     def __len__(self) -> int:
         return self._count
 
-    def __getitem__(self, index):
+    @overload
+    def __getitem__(self, index: int) -> Case: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> Cases: ...
+
+    def __getitem__(self, index: int | slice) -> Case | Cases:
         if isinstance(index, slice):
             return Cases(
                 None if self.loads is None else self.loads[index],
@@ -303,18 +352,18 @@ class Cases(Sequence):
             None if self.configurations is None else self.configurations[index],
         )
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[Case]:
         none = itertools.repeat(None, self._count)
         loads = none if self.loads is None else self.loads
         configurations = none if self.configurations is None else self.configurations
         return zip(loads, configurations)
 
-    def load_column(self) -> Sequence:
+    def load_column(self) -> Sequence[Any]:
         """Every case's loads (None: the model's)."""
         return [None] * self._count if self.loads is None else self.loads
 
 
-def _cases(mechanism, loads, configurations) -> Cases:
+def _cases(mechanism: Mechanism, loads: Any, configurations: Any) -> Cases:
     if loads is not None and not isinstance(loads, Sequence):
         loads = list(loads)
     if configurations is not None:  # followers from their leaders (model.couplings)
@@ -334,11 +383,16 @@ def _cases(mechanism, loads, configurations) -> Cases:
 
 
 def _solve_chunk(
-    mechanism, cases, options: SolveOptions, errors: str, progress=None, start=0
-) -> list:
+    mechanism: Mechanism,
+    cases: Iterable[Case],
+    options: SolveOptions,
+    errors: str,
+    progress: Progress | None = None,
+    start: int = 0,
+) -> list[Item]:
     """Solve cases in order (each warm-started from the previous one); ``start``: the index of
     the first in the whole batch (an error raised names its case)."""
-    results: list[Any] = []  # answers, or the errors of their cases
+    results: list[Item] = []  # answers, or the errors of their cases
     for k, (case_loads, q) in enumerate(cases):
         try:
             results.append(solve_with_options(mechanism, case_loads, q, options))
@@ -359,9 +413,9 @@ def name_case(error: ClearancePinError, index: int) -> None:
 
 
 def solve_many(
-    mechanism,
-    loads=None,
-    configurations=None,
+    mechanism: Mechanism,
+    loads: Any = None,
+    configurations: Any = None,
     options: SolveOptions = DEFAULT_OPTIONS,
     *,
     executor: Executor | None = None,
@@ -447,7 +501,9 @@ def solve_many(
     return ChainedBatch(parts, mechanism)
 
 
-def _solve_part(mechanism, cases: Cases, options: SolveOptions, errors: str, start: int):
+def _solve_part(
+    mechanism: Mechanism, cases: Cases, options: SolveOptions, errors: str, start: int
+) -> EquilibriumBatch:
     """An executor's task: :func:`solve_many` of one chunk of cases (its batched engines, in the
     task's process), its batch; an error raised names its case in the whole batch (``start``:
     the chunk's first)."""
@@ -465,7 +521,9 @@ def _solve_part(mechanism, cases: Cases, options: SolveOptions, errors: str, sta
         raise
 
 
-def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumBatch:
+def _solve_loads_batched(
+    mechanism: Mechanism, cases: Cases, options: SolveOptions, errors: str, bar: Progress
+) -> EquilibriumBatch:
     """Load cases at one configuration: one prepared geometry, the objectives of all cases from one
     matrix product, Newton on stacked arrays per contact set, then single solves for the rest.
 
@@ -501,7 +559,7 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     except ClearancePinError:
         return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
     objectives, sigmas, gradients, load_sizes, shares, regular = prepared.objectives(wrenches)
-    items: list = [None] * len(cases)
+    items: list[Any] = [None] * len(cases)  # of Pending
     items[0] = first
     pending = np.flatnonzero(regular)
     pending = pending[pending > 0]
@@ -606,7 +664,15 @@ def _solve_loads_batched(mechanism, cases, options, errors, bar) -> EquilibriumB
     return EquilibriumBatch(items, arrays)
 
 
-def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, errors):
+def _solve_compiled_batch(
+    mechanism: Mechanism,
+    prepared: PreparedGeometry,
+    fast: FastTerms,
+    first: Item,
+    cases: Cases,
+    options: SolveOptions,
+    errors: str,
+) -> EquilibriumBatch | None:
     """Load cases at one configuration in one compiled call (:func:`.kernel.solve_cases`), each
     warm-started from the previous case's answer, verified like a single solve; the cases it
     does not verify are solved alone. None when the cases' loads do not share one set of loaded
@@ -629,7 +695,7 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
     good = (rows[:, 0] == fast.kernel.SOLVED) & measured_ok(statics, violation)
     x_all[1:][good] = rows[good, x_column : x_column + prepared.size_x]
     batched = np.concatenate([[False], good])
-    items: list = [first]  # None: a verified case, assembled when read (_compiled_item)
+    items: list[Any] = [first]  # None: a verified case, assembled when read (_compiled_item)
     for k, verified in enumerate(good.tolist(), start=1):
         items.append(
             None if verified else _solve_chunk(mechanism, [cases[k]], options, errors, start=k)[0]
@@ -648,7 +714,14 @@ def _solve_compiled_batch(mechanism, prepared, fast, first, cases, options, erro
     )
 
 
-def _compiled_answers(mechanism, fast, rows, batched, cases, options) -> StackedAnswers:
+def _compiled_answers(
+    mechanism: Mechanism,
+    fast: FastTerms,
+    rows: Array,
+    batched: Mask,
+    cases: Cases,
+    options: SolveOptions,
+) -> StackedAnswers:
     """The answers of a compiled batch as arrays (:mod:`.batch_answers`): the kernel's rows of
     the cases 1... read as its items read them (:meth:`.fast_path.FastTerms.parts`: unknowns,
     gaps, force rows, body twists); case 0 was solved alone."""
@@ -683,7 +756,9 @@ def _compiled_answers(mechanism, fast, rows, batched, cases, options) -> Stacked
     )
 
 
-def _compiled_rows(fast, params, load_matrix, load_constant, seed) -> np.ndarray:
+def _compiled_rows(
+    fast: FastTerms, params: Array, load_matrix: Array, load_constant: Array, seed: ConeSolution
+) -> Array:
     """The kernel's rows of the load cases ``params`` (N, 3 k), each warm-started from the
     nearest recent answer, in chunks of at least :data:`THREAD_CASES` cases (at most
     :data:`THREAD_CHUNKS`) solved on threads at once when the machine has the cores (the kernel
@@ -692,10 +767,11 @@ def _compiled_rows(fast, params, load_matrix, load_constant, seed) -> np.ndarray
     itself, which keeps its answers)."""
     count = min(THREAD_CHUNKS, len(params) // THREAD_CASES)
 
-    def chunk(part: slice, pool=None) -> np.ndarray:
-        return fast.solve(params[part], load_matrix, load_constant, seed.y, seed.multipliers,
+    def chunk(part: slice, pool: Any = None) -> Array:
+        rows: Array = fast.solve(params[part], load_matrix, load_constant, seed.y, seed.multipliers,
                           seed.signs, chain=True, warm_rounds=WARM_ROUNDS, pooled=True,
                           pool=pool)[0]  # fmt: skip
+        return rows
 
     if count < 2:
         return chunk(slice(None))
@@ -710,7 +786,7 @@ def _compiled_rows(fast, params, load_matrix, load_constant, seed) -> np.ndarray
     return np.concatenate([first, *(future.result() for future in others)])
 
 
-_helpers: list = []  # the helper threads' executor, made on first use (a list: no global)
+_helpers: list[ThreadPoolExecutor] = []  # the helper threads' executor, made on first use
 _helpers_lock = threading.Lock()
 
 
@@ -726,17 +802,22 @@ def _helper_threads() -> ThreadPoolExecutor | None:
     return _helpers[0]
 
 
-def _compiled_item(fast, row, loads, outputs=None):
+def _compiled_item(
+    fast: FastTerms, row: Array, loads: tuple[Any, ...], outputs: Sequence[str] | None = None
+) -> Equilibrium:
     """The Equilibrium of one case of a compiled batch, its ``row`` of the kernel's answer (its
     flat directions, if any, found and described now); ``outputs`` as :meth:`Mechanism.solve`'s."""
     answer = fast.parts(row)
     flat, _ = fast.prepared.flat_directions(answer["y"], answer["multipliers"], answer["signs"])
     outcome = ("optimal", Method.COMPILED, "batched Newton (compiled)", 0, True)
     points = () if outputs is None else resolve_outputs(fast.prepared.mechanism, loads, outputs)
-    return fast.equilibrium(row, flat, loads, outcome, (0.0, 0.0), points, answer)
+    answered: Equilibrium = fast.equilibrium(row, flat, loads, outcome, (0.0, 0.0), points, answer)
+    return answered
 
 
-def _unique(stack, seed, y, multipliers, verified):
+def _unique(
+    stack: StackedContacts, seed: ConeSolution, y: Array, multipliers: Array, verified: Mask
+) -> Mask:
     """Cases whose optimum is unique (no direction that keeps the loaded contacts and sees no
     curvature, as :meth:`~.prepared.PreparedGeometry.flat_directions` decides for a single
     solve) and whose loaded contacts are the seed's; the others are left to single solves, which
@@ -751,14 +832,24 @@ def _unique(stack, seed, y, multipliers, verified):
     rows = np.concatenate([gradients, hessians], axis=1)
     rows /= np.maximum(1.0, np.abs(rows).max(axis=(1, 2)))[:, None, None]
     singular = np.linalg.svd(rows, compute_uv=False)
-    return verified & (singular[:, -1] > 1e-9 * singular[:, 0])
+    unique: Mask = verified & (singular[:, -1] > 1e-9 * singular[:, 0])
+    return unique
 
 
-def _lazy_item(prepared, load, y, multipliers, signs, table, loads, outputs=None):
+def _lazy_item(
+    prepared: PreparedGeometry,
+    load: tuple[Any, ...],
+    y: Array,
+    multipliers: Array,
+    signs: Array,
+    table: Array,
+    loads: tuple[Any, ...],
+    outputs: Sequence[str] | None = None,
+) -> Callable[[], Equilibrium]:
     """The Equilibrium of one batched case, assembled when first read (``loads``: the case's
     resolved loads, kept for the joint reactions; ``outputs`` as :meth:`Mechanism.solve`'s)."""
 
-    def build():
+    def build() -> Equilibrium:
         return assemble_linear(
             prepared,
             loaded_problem(prepared.geometry, *load),

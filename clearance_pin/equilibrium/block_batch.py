@@ -73,10 +73,10 @@ class BlockBatch(EquilibriumBatch):
         torsor_maps: dict[str, Array],
         build: Callable[[int], Equilibrium],
     ):
-        super().__init__(items, {"x": x, "batched": closed, "torsor_maps": torsor_maps})
+        super().__init__(items, {"x": x, "batched": closed, "torsor_maps": torsor_maps}, build)
         self._closed = closed
         self._energies = energies
-        self._build = build
+        self._assembler = build
         self._assembled: LeastRecentlyUsed[int, Equilibrium] = LeastRecentlyUsed(ANSWERS_KEPT)
 
     def __getitem__(self, index: Any) -> Any:
@@ -85,9 +85,10 @@ class BlockBatch(EquilibriumBatch):
         item = self._items[index]  # an IndexError for an index out of range
         if item is None:  # a closed-form case: assembled from the arrays, the latest few kept
             position = int(index) % len(self._items)
-            item = self._assembled.get(position)
-            if item is None:
-                item = self._assembled[position] = self._build(position)
+            kept = self._assembled.get(position)
+            if kept is None:
+                kept = self._assembled[position] = self._assembler(position)
+            return kept
         return item
 
     def __reduce__(self) -> tuple[Any, ...]:  # the arrays and the assembler travel, not items
@@ -100,7 +101,7 @@ class BlockBatch(EquilibriumBatch):
                 self._closed,
                 self._energies,
                 arrays["torsor_maps"],
-                self._build,
+                self._assembler,
             ),
         )
 
@@ -108,7 +109,9 @@ class BlockBatch(EquilibriumBatch):
         """The closed-form cases' answers as arrays (:mod:`.batch_answers`), made on first read."""
         answers = self.__dict__.get("_answers")
         if answers is None:
-            answers = self.__dict__["_answers"] = cast(Assembler, self._build).stacked(self._closed)
+            answers = self.__dict__["_answers"] = cast(Assembler, self._assembler).stacked(
+                self._closed
+            )
         return cast(StackedAnswers, answers)
 
     @property
