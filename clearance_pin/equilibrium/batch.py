@@ -33,7 +33,7 @@ from .cone_solver import ConeSolution, acceptance
 from .fast_path import WARM_ROUNDS, FastTerms, fast_terms
 from .formulation import solve_with_options
 from .kkt import RESIDUAL_NAMES, UNLOADED, StackedContacts
-from .linear_answer import assemble_linear
+from .linear_answer import Outcome, assemble_linear
 from .load_table import uniform_vectors
 from .method import Method
 from .options import DEFAULT_OPTIONS, SolveOptions
@@ -809,7 +809,7 @@ def _compiled_item(
     flat directions, if any, found and described now); ``outputs`` as :meth:`Mechanism.solve`'s."""
     answer = fast.parts(row)
     flat, _ = fast.prepared.flat_directions(answer["y"], answer["multipliers"], answer["signs"])
-    outcome = ("optimal", Method.COMPILED, "batched Newton (compiled)", 0, True)
+    outcome: Outcome = ("optimal", Method.COMPILED, "batched Newton (compiled)", 0, True)
     points = () if outputs is None else resolve_outputs(fast.prepared.mechanism, loads, outputs)
     answered: Equilibrium = fast.equilibrium(row, flat, loads, outcome, (0.0, 0.0), points, answer)
     return answered

@@ -17,30 +17,40 @@ The difference from the linear model is of second order (rotation x displacement
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from ..errors import SolverError, UnboundedLoadError, UnsupportedError
 from ..kinematics.casadi_kinematics import CasadiKinematics
-from ..kinematics.lie_casadi import compose, inverse, rotation_vee_antisym, se3_exp
+from ..kinematics.lie_casadi import Placement, compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
 from ..model.couplings import passive
+from ..model.joints import LoopJoint, TreeJoint
 from ..model.stiffness import elastic
-from ..numerics import null_space
+from ..numerics import Array, Mask, null_space
 from . import ipopt
 from .contact_split import least_norm_split
 from .kkt import ACCEPT_KKT
+from .load_terms import BodyLoad
 from .method import Method
-from .outputs import output_displacements, resolve_outputs
+from .outputs import OutputPoint, output_displacements, resolve_outputs
 from .prepared import linear_setup, statics_weights
 from .reactions import frames_at
+from .reduction import ReducedProblem
 from .residuals import STATICS_TOLERANCE, Residuals
 from .result import Contact, Equilibrium
 from .small_displacement import tree_joint_basis
+
+if TYPE_CHECKING:  # the mechanism module imports this one
+    from ..model.loads import Load
+    from ..model.mechanism_parts import ConfigurationParts as Configuration
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 
 @dataclass(frozen=True)
@@ -56,13 +66,23 @@ class ExactParts:
     hessian: np.ndarray
     energy: float
     closure: np.ndarray
-    poses: list
+    poses: list[Array]
+
+
+# a verified answer of the Newton polish: (z, multipliers, the model evaluated there)
+Polished = tuple[Array, Array, ExactParts]
 
 
 class ExactProblem:
     """The exact NLP of one mechanism structure, built once (parameters: q, loads, clearances)."""
 
-    def __init__(self, mechanism, linear_problem, equality_rows: tuple[int, ...], tol: float):
+    def __init__(
+        self,
+        mechanism: Mechanism,
+        linear_problem: ReducedProblem,
+        equality_rows: tuple[int, ...],
+        tol: float,
+    ) -> None:
         started = time.perf_counter()
         model = mechanism.model
         self.mechanism = mechanism
@@ -221,7 +241,7 @@ class ExactProblem:
         self._pose_count = len(poses)
         self.build_time = time.perf_counter() - started
 
-    def evaluate(self, z: np.ndarray, params: np.ndarray, lam: np.ndarray) -> ExactParts:
+    def evaluate(self, z: np.ndarray, params: ca.DM, lam: np.ndarray) -> ExactParts:
         """Everything the Newton step and the answer need at (z, lambda), from one CasADi call."""
         flat = self._all_parts(z, params, lam).full().ravel()  # params: a ca.DM, converted once
         arrays, offset = [], 0
@@ -239,7 +259,14 @@ class ExactProblem:
             arrays[6:],
         )
 
-    def parameters(self, configuration, scale, body_loads, linear_problem, sigma) -> np.ndarray:
+    def parameters(
+        self,
+        configuration: Configuration,
+        scale: Array,
+        body_loads: Mapping[int, BodyLoad],
+        linear_problem: ReducedProblem,
+        sigma: float,
+    ) -> Array:
         """Numeric parameter vector for one solve."""
         model = self.mechanism.model
         loads = np.zeros((15, model.njoints))
@@ -275,7 +302,7 @@ class ExactProblem:
         )
 
 
-def _loop_equalities(mechanism, relative) -> list:
+def _loop_equalities(mechanism: Mechanism, relative: Mapping[str, Placement]) -> list[ca.SX]:
     """Rigid conditions of loop joints, in the order of the linear model's equality rows."""
     rows = []
     for loop in mechanism.loop_joints:
@@ -314,7 +341,12 @@ def independent_rows(equalities: np.ndarray, scale: np.ndarray) -> tuple[int, ..
 
 
 def solve_exact_model(
-    mechanism, loads, q, linear: Equilibrium, tol: float, from_nominal: bool = False
+    mechanism: Mechanism,
+    loads: Sequence[Load],
+    q: npt.ArrayLike | None,
+    linear: Equilibrium,
+    tol: float,
+    from_nominal: bool = False,
 ) -> Equilibrium:
     """Solve the exact model from the linear equilibrium ``linear``; residuals measured.
 
@@ -475,15 +507,15 @@ def _linear_start(
 
 def polish_exact(
     exact: ExactProblem,
-    z,
-    lam,
-    params,
-    at_upper=None,
-    at_lower=None,
+    z: Array,
+    lam: Array,
+    params: ca.DM,
+    at_upper: Mask | None = None,
+    at_lower: Mask | None = None,
     iterations: int = 12,
-    released=None,
+    released: Mask | None = None,
     steps: list[int] | None = None,
-):
+) -> Polished | None:
     r"""Active-set Newton on the exact KKT system from a nearby point; None unless verified
     (``steps``: the Newton steps taken are appended to it).
 
@@ -504,6 +536,7 @@ def polish_exact(
         at_lower = np.isfinite(lower[:n_in]) & (
             (np.abs(g[:n_in] - lower[:n_in]) < 1e-6) | (lam[:n_in] < -1e-9 * largest)
         )
+    assert at_lower is not None  # given with at_upper
     if not (np.any(at_upper) or np.any(at_lower)):
         return None
     equalities = np.arange(n_in, lower.size)
@@ -563,7 +596,7 @@ FLAT_CURVATURE = 1e-9  # of the largest Hessian entry: a direction of no curvatu
 FLAT_ROUNDS = 6
 
 
-def _flat_directions(exact: ExactProblem, lam, parts: ExactParts) -> np.ndarray:
+def _flat_directions(exact: ExactProblem, lam: Array, parts: ExactParts) -> Array:
     r"""Directions (n, k) along which the exact answer is not isolated: they keep the loaded
     contacts and the equalities (null space N of their Jacobian) and the Lagrangian has no
     curvature along them (eigenvectors of :math:`N^T \nabla^2 L\, N` with eigenvalues within
@@ -576,10 +609,13 @@ def _flat_directions(exact: ExactProblem, lam, parts: ExactParts) -> np.ndarray:
     reduced = keep.T @ parts.hessian @ keep
     values, vectors = np.linalg.eigh(0.5 * (reduced + reduced.T))
     size = max(1.0, float(np.abs(parts.hessian).max()))
-    return keep @ vectors[:, np.abs(values) <= FLAT_CURVATURE * size]
+    flat: Array = keep @ vectors[:, np.abs(values) <= FLAT_CURVATURE * size]
+    return flat
 
 
-def _nearest_on_flat_directions(exact: ExactProblem, z0, z, lam, parts: ExactParts, params):
+def _nearest_on_flat_directions(
+    exact: ExactProblem, z0: Array, z: Array, lam: Array, parts: ExactParts, params: ca.DM
+) -> Polished:
     r"""The verified answer moved along its flat directions (:func:`_flat_directions`) towards
     the linear answer ``z0``: :math:`z + N N^T (z_0 - z)`, then the Newton polish on the same
     contacts, repeated while it moves (at most :data:`FLAT_ROUNDS` times). Where the potential
@@ -609,7 +645,14 @@ NEARBY_ROTATION = 0.1  # [rad] a motion that settles further than this is no set
 HELD_SHARE = 10.0
 
 
-def _settle_free_motions(exact: ExactProblem, problem, z, lam, parts: ExactParts, params):
+def _settle_free_motions(
+    exact: ExactProblem,
+    problem: ReducedProblem,
+    z: Array,
+    lam: Array,
+    parts: ExactParts,
+    params: ca.DM,
+) -> Polished | None:
     """Release the gauge rows the load pulls on at the solved pose (all of them, else each alone,
     most pulled first) and keep the first answer that settles nearby (:func:`_settles_nearby`);
     None when none does."""
@@ -626,7 +669,9 @@ def _settle_free_motions(exact: ExactProblem, problem, z, lam, parts: ExactParts
     return None
 
 
-def _settles_nearby(exact: ExactProblem, problem, z, lam, parts: ExactParts) -> bool:
+def _settles_nearby(
+    exact: ExactProblem, problem: ReducedProblem, z: Array, lam: Array, parts: ExactParts
+) -> bool:
     r"""The released answer is a stable equilibrium near the nominal pose: the Hessian of the
     Lagrangian is positive semi-definite on the motions that keep the active constraints
     (:math:`N^T \nabla^2 L\, N \succeq 0`, to 1e-9 of its size), no joint turns by more than
@@ -657,20 +702,28 @@ def _settles_nearby(exact: ExactProblem, problem, z, lam, parts: ExactParts) -> 
     )
 
 
-def _coordinates(linear: Equilibrium, joint) -> np.ndarray:
+def _coordinates(linear: Equilibrium, joint: TreeJoint) -> Array:
     """A tree joint's unknowns in the linear answer: its play's, then its spring's (if any)."""
     deflection = linear.deflection(joint.name)
     play = tree_joint_basis(joint).T @ (linear.torsors[joint.name] - deflection)
     return np.concatenate([play, _spring_coordinates(linear, joint)])
 
 
-def _spring_coordinates(linear: Equilibrium, joint) -> np.ndarray:
+def _spring_coordinates(linear: Equilibrium, joint: TreeJoint | LoopJoint) -> Array:
     """A joint's spring unknowns e in the linear answer, D^T (its deflection); none if rigid."""
     directions, _ = elastic(joint.clearance)
-    return directions.T @ linear.deflection(joint.name)
+    spring: Array = directions.T @ linear.deflection(joint.name)
+    return spring
 
 
-def _statics(mechanism, problem, sigma, gradient, contact_part, held_rows):
+def _statics(
+    mechanism: Mechanism,
+    problem: ReducedProblem,
+    sigma: float,
+    gradient: Array,
+    contact_part: Array,
+    held_rows: Array,
+) -> float:
     r"""The statics residual of the exact answer, measured like the linear model's
     (:meth:`.prepared.PreparedGeometry.statics_residual`): what the loads (``gradient``, the
     potential's over sigma in the scaled unknowns z) and the contact forces (``contact_part``)
@@ -688,17 +741,17 @@ def _statics(mechanism, problem, sigma, gradient, contact_part, held_rows):
 
 
 def _assemble(
-    mechanism,
+    mechanism: Mechanism,
     exact: ExactProblem,
-    problem,
-    configuration,
-    z,
-    lam,
+    problem: ReducedProblem,
+    configuration: Configuration,
+    z: Array,
+    lam: Array,
     parts: ExactParts,
-    sigma,
-    stats,
+    sigma: float,
+    stats: Mapping[str, Any],
     polished_multipliers: bool = False,
-):
+) -> Equilibrium:
     model = mechanism.model
     placed = parts.poses[: model.njoints]
     relatives = dict(zip(mechanism.joints, parts.poses[model.njoints :]))
@@ -850,7 +903,15 @@ def _assemble(
     )
 
 
-def _split_multipliers(exact: ExactProblem, jacobian, loop_rows, lam, images, gaps, sigma):
+def _split_multipliers(
+    exact: ExactProblem,
+    jacobian: Array,
+    loop_rows: Array,
+    lam: Array,
+    images: Sequence[Array],
+    gaps: Sequence[float],
+    sigma: float,
+) -> Array:
     r"""The contact multipliers with the forces of the touching contacts (gap within 1e-7 of the
     play) split by least norm (:func:`.contact_split.least_norm_split`), as the linear model's
     (:func:`.linear_answer.split_force_rows`): a unit force [N] at contact j is
@@ -883,7 +944,9 @@ def _split_multipliers(exact: ExactProblem, jacobian, loop_rows, lam, images, ga
     return lam
 
 
-def _difference(exact: Equilibrium, linear: Equilibrium, points) -> dict:
+def _difference(
+    exact: Equilibrium, linear: Equilibrium, points: tuple[OutputPoint, ...]
+) -> dict[str, Any]:
     """Exact - linear at the output ``points``: per output (translation (3,) [m], rotation (3,)
     [rad]), world axes, their largest norms, and the largest difference of a joint torsor
     component (see ``Equilibrium.difference``)."""

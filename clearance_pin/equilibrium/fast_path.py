@@ -26,24 +26,31 @@ import sys
 import threading
 import time
 import warnings
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, Protocol, TypedDict
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import KernelUnavailableWarning
-from ..model.loads import Gravity, PointForce, Torque
-from .cone_solver import WARM_MAX_SIZE, ConeSolution, acceptance
+from ..model.loads import Gravity, Load, PointForce, Torque
+from ..numerics import Array, Index, Mask
+from .cone_solver import WARM_MAX_SIZE, Backend, ConeSolution, acceptance
 from .frozen import FieldTemplate
 from .kkt import ACTIVE_GAP, POLISH_TOL, PROXIMAL, UNLOADED
 from .lazy import LazySequence
-from .linear_answer import linear_equilibrium
-from .load_table import LoadVectors
+from .linear_answer import Outcome, linear_equilibrium
+from .load_table import uniform_vectors
 from .method import Method, backend_method
+from .outputs import OutputPoint
 from .prepared import PreparedGeometry
-from .reduction import ROUND_OFF_WORK, UNBOUNDED_FRACTION, loaded_problem
+from .reduction import ROUND_OFF_WORK, UNBOUNDED_FRACTION, ReducedProblem, loaded_problem
 from .residuals import Residuals
 from .result import Equilibrium
+
+if TYPE_CHECKING:  # the kernel imports numba: loaded when first used (load_kernel)
+    from .kernel import Compiled
 
 # the NumPy path's constants, in the order of kernel.POLISH ... kernel.ROUND_OFF_WORK
 TOLERANCES = np.array(
@@ -58,8 +65,31 @@ ROUNDS, WARM_ROUNDS, CENTRE_ROUNDS_PER_CONTACT, ITERATIONS = 10, 3, 8, 12
 POOL = 64  # recent answers the kernel keeps per geometry, the starts of warm solves
 LOAD_MAPS_KEPT = 64  # sets of loaded points kept per configuration
 
+
+class CompiledKernel(Protocol):
+    """What the solver reads of the kernel module (:mod:`.kernel`), which is one (mypy checks
+    the module against it where :func:`load_kernel` keeps it)."""
+
+    SOLVED: int
+    UNDECIDED: int
+    UNBOUNDED: int
+    NO_WORK: int
+    SCALARS: int
+    ENERGY: int
+    START: int
+    solve_cases: Compiled[..., tuple[Array, Array]]
+    load_objective: Compiled[..., tuple[int, Array, float, Array, float, float]]
+
+
+class _Loaded(TypedDict, total=False):
+    kernel: CompiledKernel  # the module
+    seconds: float  # its load time
+    failed: bool  # unavailable in this process
+    installed: bool  # numba's cache holds it (the record of _record_path)
+
+
 _lock = threading.Lock()
-_loaded: dict[str, object] = {}  # "kernel": the module; "failed": unavailable; "installed": bool
+_loaded: _Loaded = {}
 
 
 def load_kernel() -> float:
@@ -98,17 +128,17 @@ def load_kernel() -> float:
             _write_record(kernel)
     if "failed" in _loaded:
         return 0.0
-    return float(_loaded["seconds"])  # type: ignore[arg-type]
+    return float(_loaded["seconds"])
 
 
 def kernel_load_time() -> float | None:
     """Seconds the kernel took to load (numba import and compile or cache load), None if not
     loaded."""
     value = _loaded.get("seconds")
-    return None if value is None else float(value)  # type: ignore[arg-type]
+    return None if value is None else float(value)
 
 
-def compiled_kernel(engage: int = 0):
+def compiled_kernel(engage: int = 0) -> CompiledKernel | None:
     """The kernel module (:mod:`.kernel`) when loaded; with ``engage`` (a re-solve or a batch
     asks for it), loaded now when :func:`kernel_installed`. None otherwise: numba missing, the
     kernel not compiled on this machine, failed to load, or ``CLEARANCE_PIN_COMPILED=0``."""
@@ -171,7 +201,7 @@ def _record_valid() -> bool:
         return False
 
 
-def _write_record(kernel) -> None:
+def _write_record(kernel: CompiledKernel) -> None:
     """Record numba's cache index files of the loaded ``kernel`` (:func:`_record_path`), so that
     later processes take the kernel without compiling it; silently nothing where the user's
     cache folder is not writable (those processes go the NumPy way)."""
@@ -192,14 +222,23 @@ def _write_record(kernel) -> None:
     _loaded["installed"] = True
 
 
+# the kernel's layout of a geometry's contacts (matrix, offset, starts, is_norm), of its pool of
+# recent answers (f, y, multipliers, sides, (entries, next slot)), of solve_cases' arguments from
+# the load map to the guess, and the key of a set of loaded points (link, point or gravity)
+Cone = tuple[Array, Array, Index, Mask]
+Pool = tuple[Array, Array, Array, Array, Index]
+LoadArguments = tuple[Array, Array, Array, int, Array, Array, Array, Index, Mask]
+LoadKey = tuple[tuple[str | None, bytes | None], ...]
+
+
 class BoundLoads(NamedTuple):
     """One set of loaded points (kinds, links, points, gravity) on one geometry: the map
     W = A p + w0 from their force and torque vectors p to the body wrenches, and the kernel's
     arguments from A to the guess (:func:`.kernel.solve_cases`), bound once."""
 
-    matrix: np.ndarray
-    constant: np.ndarray
-    arguments: tuple
+    matrix: Array
+    constant: Array
+    arguments: LoadArguments
 
 
 # the residuals in solve_cases' row from column 3 on (kernel.ENERGY's docstring)
@@ -211,13 +250,15 @@ class FastTerms:
     """The arrays of one prepared geometry in the kernel's layout (contiguous float64 / int64),
     and the load maps of the sets of loaded points seen so far."""
 
-    def __init__(self, prepared: PreparedGeometry):
+    def __init__(self, prepared: PreparedGeometry) -> None:
         terms, stack = prepared.terms, prepared.geometry.stack
         self.prepared = prepared
-        self.kernel = compiled_kernel()
+        kernel = compiled_kernel()
+        assert kernel is not None  # built only once the kernel is loaded (fast_terms)
+        self.kernel = kernel
         self.size = stack.size
         ends = np.append(stack.starts, stack.matrix.shape[0]).astype(np.int64)
-        self.cone = (
+        self.cone: Cone = (
             np.ascontiguousarray(stack.matrix, dtype=float),
             np.ascontiguousarray(stack.offset, dtype=float),
             ends,
@@ -242,7 +283,7 @@ class FastTerms:
         self.clearance = float(terms.bounds.max(initial=0.0))
         self.accept = acceptance(prepared.geometry.conditioning)
         self.centre_rounds = ROUNDS + CENTRE_ROUNDS_PER_CONTACT * stack.count
-        self.load_maps: dict[tuple, BoundLoads] = {}
+        self.load_maps: dict[LoadKey, BoundLoads] = {}
         # the columns of solve_cases' rows after its scalars (kernel.solve_cases)
         m, joints, bodies = stack.count, len(terms.joint_names), prepared.bodies
         sizes = (
@@ -255,13 +296,14 @@ class FastTerms:
             ("gaps", m, None),
             ("forces", stack.matrix.shape[0], None),
         )
-        self.layout, at = [], self.kernel.SCALARS
+        self.layout: list[tuple[str, int, int, tuple[int, int] | None]] = []
+        at = self.kernel.SCALARS
         for name, size, shape in sizes:
             self.layout.append((name, at, at + size, shape))
             at += size
         self._slices = [(name, slice(start, end), shape) for name, start, end, shape in self.layout]
         # the kernel's pool of recent answers (kernel.solve_cases), updated in place by it
-        self.pool = (
+        self.pool: Pool = (
             np.zeros((POOL, self.size)),
             np.zeros((POOL, self.size)),
             np.zeros((POOL, m)),
@@ -280,8 +322,10 @@ class FastTerms:
             },
         )
 
-    def solve(self, cases, load_matrix, load_constant, y, multipliers, signs, chain=False,
-              allow_flat=True, warm_rounds=ROUNDS, centre=True, pooled=False, pool=None):  # fmt: skip
+    def solve(self, cases: Array, load_matrix: Array, load_constant: Array, y: npt.ArrayLike,
+              multipliers: npt.ArrayLike, signs: npt.ArrayLike, chain: bool = False,
+              allow_flat: bool = True, warm_rounds: int = ROUNDS, centre: bool = True,
+              pooled: bool = False, pool: Pool | None = None) -> tuple[Array, Array]:  # fmt: skip
         """kernel.solve_cases on the load cases ``cases`` (N, 3 k) from the guess (y,
         multipliers, slab sides) in ``warm_rounds`` rounds (0: no guess), else from the centre
         (``centre`` False: not): (rows (N, width), flat directions of the last case).
@@ -294,12 +338,15 @@ class FastTerms:
             *self.answer, chain, allow_flat, *(self.pool if pool is None else pool), pooled,
         )  # fmt: skip
 
-    def pool_copy(self) -> tuple:
+    def pool_copy(self) -> Pool:
         """A copy of the pool of recent answers, for a chunk of cases solved on another thread
         (the kernel updates a pool in place)."""
-        return tuple(array.copy() for array in self.pool)
+        f, y, multipliers, signs, state = self.pool
+        return f.copy(), y.copy(), multipliers.copy(), signs.copy(), state.copy()
 
-    def solve_warm(self, cases, bound: BoundLoads, warm: ConeSolution):
+    def solve_warm(
+        self, cases: Array, bound: BoundLoads, warm: ConeSolution
+    ) -> tuple[Array, Array]:
         """:meth:`solve` of ``cases`` with the loads ``bound`` (:meth:`load_binding`), each from
         the nearest recent answer, ``warm`` while there are none, in WARM_ROUNDS rounds, then
         from the centre: the re-solve's one compiled call, its other arguments bound once."""
@@ -312,7 +359,9 @@ class FastTerms:
         """Empty the pool of recent answers (a benchmark's runs start equal)."""
         self.pool[4][:] = 0
 
-    def solve_cold(self, cases, load_matrix, load_constant):
+    def solve_cold(
+        self, cases: Array, load_matrix: Array, load_constant: Array
+    ) -> tuple[Array, Array]:
         """:meth:`solve` from the centre alone (no guess)."""
         count = self.cone[3].size
         return self.solve(cases, load_matrix, load_constant, np.zeros(self.size), np.zeros(count),
@@ -326,8 +375,10 @@ class FastTerms:
             for name, part, shape in self._slices
         }
 
-    def equilibrium(self, row, flat, loads, outcome, times, output_points=(), answer=None,
-                    residuals=None) -> Equilibrium:  # fmt: skip
+    def equilibrium(self, row: Array, flat: Array, loads: Sequence[Load], outcome: Outcome,
+                    times: tuple[float, float], output_points: tuple[OutputPoint, ...] = (),
+                    answer: dict[str, Array] | None = None,
+                    residuals: Residuals | None = None) -> Equilibrium:  # fmt: skip
         """The :class:`~.result.Equilibrium` of one row of :meth:`solve` (``answer``,
         ``residuals``: its :meth:`parts` and :meth:`residuals` when already read), its flat
         directions ``flat`` (r, k) described when read; ``outcome`` and ``times`` as
@@ -358,30 +409,31 @@ class FastTerms:
     def residuals(self, row: np.ndarray) -> Residuals:
         """The measured residuals of one row of :meth:`solve` (from a template of the constant
         fields, :class:`.frozen.FieldTemplate`: a re-solve's few microseconds)."""
-        residuals, state = self._residuals.new()
+        instance, state = self._residuals.new()
+        residuals: Residuals = instance  # (FieldTemplate.new: an instance of its class)
         state.update(zip(_RESIDUAL_COLUMNS, row[3 : self.kernel.ENERGY].tolist()))
         return residuals
 
-    def load_map(self, loads) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    def load_map(self, loads: Sequence[object]) -> tuple[Array, Array, Array] | None:
         r"""(p, A, w0): the loads' force and torque vectors stacked (3 k,) [N, N m] and the map
         :math:`W = A p + w_0` to the body wrenches at the world origin (bodies * 6,) (the fixed
         loads, gravity, in :math:`w_0`); None for a load of another kind."""
         bound = self.load_binding(loads)
         return None if bound is None else (bound[0], bound[1].matrix, bound[1].constant)
 
-    def load_binding(self, loads) -> tuple[np.ndarray, BoundLoads] | None:
+    def load_binding(self, loads: Sequence[object]) -> tuple[Array, BoundLoads] | None:
         """(p, the :class:`BoundLoads` of the loads' kinds, links and points), kept per set of
         loaded points; None for a load of another kind."""
-        key, vectors = [], []
+        key: list[tuple[str | None, bytes | None]] = []
+        vectors: list[Array] = []
         for load in loads:
-            kind = type(load)
-            if kind is PointForce:
+            if type(load) is PointForce:
                 key.append((load.link, load.point.tobytes()))
                 vectors.append(load.force)
-            elif kind is Torque:
+            elif type(load) is Torque:
                 key.append((load.link, None))
                 vectors.append(load.torque)
-            elif kind is Gravity:
+            elif type(load) is Gravity:
                 key.append((None, load.acceleration.tobytes()))
             else:
                 return None
@@ -395,79 +447,41 @@ class FastTerms:
         params = np.concatenate(vectors) if vectors else np.zeros(0)
         return params, bound
 
-    def _load_arguments(self) -> tuple:
+    def _load_arguments(self) -> tuple[Array, int, Array, Array, Array, Index, Mask]:
         """solve_cases' arguments between the load map and the guess."""
         return (self.load_rows, self.prepared.size_x, self.weights, *self.cone)
 
     def load_cases(
-        self, cases, appended: tuple = ()
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        self, cases: Sequence[Sequence[object] | None], appended: tuple[Load, ...] = ()
+    ) -> tuple[Array, Array, Array] | None:
         """:meth:`load_map` of many load cases at once, each case's loads followed by the loads
         ``appended`` (gravity): (P (N, 3 k), A, w0) when every case has the first case's loads
         (kinds, links, points, gravity) with other force and torque vectors; None otherwise
         (another set of loaded points, or a case that is not a sequence of loads)."""
-        if not cases:
+        vectors = uniform_vectors(cases)  # (LoadVectors given as they are: no object read)
+        if vectors is None or not len(vectors) or any(type(g) is not Gravity for g in appended):
             return None
-        if isinstance(cases, LoadVectors):  # the vectors given as an array: no object read
-            mapped = self.load_map((*cases[0], *appended))
-            if mapped is None or any(type(load) is not Gravity for load in appended):
-                return None
-            return np.ascontiguousarray(cases.vectors, dtype=float), mapped[1], mapped[2]
-        try:
-            first = (*cases[0], *appended)
-        except TypeError:
-            return None
-        mapped = self.load_map(first)
+        mapped = self.load_map((*vectors.template, *appended))
         if mapped is None:
             return None
-        # per position of the first case: (kind, link, the point or gravity it must equal)
-        layout = [
-            (type(load), getattr(load, "link", None),
-             load.point.tobytes() if type(load) is PointForce else
-             load.acceleration.tobytes() if type(load) is Gravity else None)
-            for load in first[: len(first) - len(appended)]
-        ]  # fmt: skip
-        size = len(layout)
-        vectors = []
-        for loads in cases:
-            if type(loads) not in (tuple, list) or len(loads) != size:
-                return None
-            for load, (kind, link, known) in zip(loads, layout):
-                if type(load) is not kind:
-                    return None
-                if kind is PointForce:
-                    if load.link != link or load.point.tobytes() != known:
-                        return None
-                    vectors.append(load.force)
-                elif kind is Torque:
-                    if load.link != link:
-                        return None
-                    vectors.append(load.torque)
-                elif load.acceleration.tobytes() != known:
-                    return None
-        for load in appended:  # the same in every case
-            if type(load) is not Gravity:
-                return None
-        params = np.array(vectors, dtype=float).reshape(len(cases), -1)
-        return params, mapped[1], mapped[2]
+        return np.ascontiguousarray(vectors.vectors, dtype=float), mapped[1], mapped[2]
 
-    def _build_load_map(self, loads) -> tuple[np.ndarray, np.ndarray]:
+    def _build_load_map(self, loads: Sequence[object]) -> tuple[Array, Array]:
         """A column per component of a force or torque (the wrench of that unit load alone;
         the wrench is linear in it) and w0 the wrench of the gravity loads."""
         wrenches = self.prepared.wrenches
         fixed = tuple(load for load in loads if type(load) is Gravity)
         constant = wrenches(fixed).ravel()
-        columns = []
-        for load in loads:
-            if type(load) is Gravity:
+        columns: list[Array] = []
+        units: list[Load]
+        for load in loads:  # PointForce, Torque and Gravity loads (load_binding)
+            if type(load) is PointForce:
+                units = [PointForce(load.link, force=axis, point=load.point) for axis in np.eye(3)]
+            elif type(load) is Torque:
+                units = [Torque(load.link, axis) for axis in np.eye(3)]
+            else:  # gravity: in w0
                 continue
-            for axis in np.eye(3):
-                unit = (
-                    PointForce(load.link, force=axis, point=load.point)
-                    if type(load) is PointForce
-                    else Torque(load.link, axis)
-                )
-                columns.append(wrenches((unit,)).ravel())
+            columns.extend(wrenches((unit,)).ravel() for unit in units)
         matrix = np.array(columns).T if columns else np.zeros((constant.size, 0))
         return np.ascontiguousarray(matrix), np.ascontiguousarray(constant)
 
@@ -478,7 +492,7 @@ def fast_terms(prepared: PreparedGeometry) -> FastTerms | None:
     goes the NumPy way) or the problem is larger than a dense Newton step pays for."""
     if compiled_kernel(engage=1) is None:  # loaded, or loads now
         return None
-    built = prepared.__dict__.get("_fast_terms")
+    built: FastTerms | None = prepared.__dict__.get("_fast_terms")
     if built is not None:
         return built
     if not prepared.mechanism.cache.warm or prepared.geometry.stack.size > WARM_MAX_SIZE:
@@ -490,11 +504,11 @@ def fast_terms(prepared: PreparedGeometry) -> FastTerms | None:
 
 def solve_compiled(
     fast: FastTerms,
-    loads,
+    loads: Sequence[Load],
     warm: ConeSolution | None,
-    backend_of,
+    backend_of: Callable[[ReducedProblem], tuple[Backend, bool]],
     started: float,
-    output_points: tuple = (),
+    output_points: tuple[OutputPoint, ...] = (),
     from_centre: bool = True,
 ) -> Equilibrium | None:
     """The verified answer by the kernel, or None (the NumPy path then solves this load).
@@ -555,8 +569,9 @@ def solve_compiled(
                             started, output_points)  # fmt: skip
 
 
-def resolve_compiled(fast: FastTerms, bound: BoundLoads, vector: np.ndarray, warm: ConeSolution,
-                     loads_of, started: float, output_points: tuple) -> Equilibrium | None:  # fmt: skip
+def resolve_compiled(fast: FastTerms, bound: BoundLoads, vector: Array, warm: ConeSolution,
+                     loads_of: Callable[[], Iterable[Load]], started: float,
+                     output_points: tuple[OutputPoint, ...]) -> Equilibrium | None:  # fmt: skip
     """A planner's re-solve (:mod:`.resolver`): the loads ``bound`` with the force and torque
     vectors ``vector`` (3 k,) [N, N m], the kernel's pooled warm start then its centred start,
     or None (the caller then solves the loads ``loads_of()`` the general way). ``loads_of``
@@ -570,8 +585,9 @@ def resolve_compiled(fast: FastTerms, bound: BoundLoads, vector: np.ndarray, war
                             0.0, started, output_points)  # fmt: skip
 
 
-def _verified_answer(fast: FastTerms, row, flat, loads, method: Method, status: str, iterations: int,
-                     build_time: float, started: float, output_points) -> Equilibrium | None:  # fmt: skip
+def _verified_answer(fast: FastTerms, row: Array, flat: Array, loads: Sequence[Load], method: Method,
+                     status: str, iterations: int, build_time: float, started: float,
+                     output_points: tuple[OutputPoint, ...]) -> Equilibrium | None:  # fmt: skip
     """The Equilibrium of a kernel's SOLVED row when its residuals pass (the answer is kept as
     the next warm start), else None."""
     residuals = fast.residuals(row)
@@ -608,7 +624,7 @@ STARTS = {
 }
 
 
-def _vector(values) -> np.ndarray:
+def _vector(values: npt.ArrayLike) -> Array:
     """A contiguous float64 vector (the kernel's one layout: another would compile again)."""
     return np.ascontiguousarray(values, dtype=np.float64)
 
@@ -620,7 +636,7 @@ def kernel_cache_dir() -> str | None:
     module = _loaded.get("kernel")
     if module is None:
         return None
-    return str(module.solve_cases.stats.cache_path)  # type: ignore[attr-defined]
+    return str(module.solve_cases.stats.cache_path)
 
 
 def kernel_compiled_now() -> bool:
@@ -630,8 +646,8 @@ def kernel_compiled_now() -> bool:
     if module is None:
         return False
     return any(
-        sum(function.stats.cache_misses.values()) > 0  # type: ignore[attr-defined]
-        for function in (module.solve_cases, module.load_objective)  # type: ignore[attr-defined]
+        sum(function.stats.cache_misses.values()) > 0
+        for function in (module.solve_cases, module.load_objective)
     )
 
 

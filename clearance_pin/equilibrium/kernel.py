@@ -23,9 +23,50 @@ compiled once per machine and kept in numba's on-disk cache.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, ParamSpec, Protocol, TypeVar, overload
 
 import numpy as np
-from numba import njit
+
+from ..numerics import Array, Index, Mask
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+_R_co = TypeVar("_R_co", covariant=True)
+
+
+class CompileStats(Protocol):
+    """numba's statistics of a compiled function (its dispatcher's ``stats``), as read here."""
+
+    @property
+    def cache_path(self) -> str: ...
+
+    @property
+    def cache_misses(self) -> Mapping[object, int]: ...
+
+
+class Compiled(Protocol[_P, _R_co]):
+    """A function compiled by numba (its dispatcher) as mypy reads it: called as the function
+    is, and its compile statistics."""
+
+    @property
+    def stats(self) -> CompileStats: ...
+
+    def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R_co: ...
+
+
+if TYPE_CHECKING:
+    # numba's njit is untyped, and an untyped decorator leaves the function untyped: its type as
+    # used here. At run time njit is numba's own (the decorators and the cache unchanged).
+    @overload
+    def njit(function: Callable[_P, _R], /) -> Compiled[_P, _R]: ...
+    @overload
+    def njit(
+        *, cache: bool = ..., nogil: bool = ...
+    ) -> Callable[[Callable[_P, _R]], Compiled[_P, _R]]: ...
+    def njit(*args: Any, **options: Any) -> Any: ...
+else:
+    from numba import njit
 
 SOLVED = 0
 UNDECIDED = 1  # the NumPy path decides
@@ -37,9 +78,14 @@ BOUNDARY_STEP = 0.25  # a boundary step moves an active ball's or disc's image b
 # indices into the tolerances array (its values are the NumPy path's constants, see fast_path.py)
 POLISH, PROXIMAL, UNLOADED, ACTIVE_GAP, UNBOUNDED_FRACTION, ROUND_OFF_WORK = range(6)
 
+# verified_optimum's answer: (code, y, multipliers, signs, KKT residuals, flat directions)
+Optimum = tuple[int, Array, Array, Array, Array, Array]
+# answer_arrays': (x, torsors, twists, gaps, force rows, measured residuals)
+AnswerArrays = tuple[Array, Array, Array, Array, Array, Array]
+
 
 @njit
-def _norm(v):
+def _norm(v: Array) -> float:
     total = 0.0
     for value in v:
         total += value * value
@@ -47,7 +93,7 @@ def _norm(v):
 
 
 @njit
-def _product(matrix, vector):
+def _product(matrix: Array, vector: Array) -> Array:
     out = np.empty(matrix.shape[0])
     for i in range(matrix.shape[0]):
         total = 0.0
@@ -58,7 +104,16 @@ def _product(matrix, vector):
 
 
 @njit(cache=True)
-def load_objective(params, load_matrix, load_constant, load_rows, n, r, weights, tolerances):
+def load_objective(
+    params: Array,
+    load_matrix: Array,
+    load_constant: Array,
+    load_rows: Array,
+    n: int,
+    r: int,
+    weights: Array,
+    tolerances: Array,
+) -> tuple[int, Array, float, Array, float, float]:
     r"""The reduced objective of one load (:meth:`.prepared.PreparedGeometry.problem`).
 
     Body wrenches at the world origin :math:`W = A p + w_0` (A: the loads' map of their force and
@@ -89,7 +144,7 @@ def load_objective(params, load_matrix, load_constant, load_rows, n, r, weights,
 
 
 @njit
-def _phi_abs(matrix, offset, starts, is_norm, y):
+def _phi_abs(matrix: Array, offset: Array, starts: Index, is_norm: Mask, y: Array) -> Array:
     """phi_j(y) of every contact, slabs on either side (|p^T y + o| - 1)."""
     count = is_norm.size
     phi = np.empty(count)
@@ -105,7 +160,7 @@ def _phi_abs(matrix, offset, starts, is_norm, y):
 
 
 @njit
-def _sides(matrix, offset, starts, is_norm, y):
+def _sides(matrix: Array, offset: Array, starts: Index, is_norm: Mask, y: Array) -> Array:
     """+1 / -1: the side of every slab at y (1 for balls and discs)."""
     count = is_norm.size
     signs = np.ones(count)
@@ -121,7 +176,15 @@ def _sides(matrix, offset, starts, is_norm, y):
 
 
 @njit
-def _gradients(matrix, offset, starts, is_norm, signs, contacts, y):
+def _gradients(
+    matrix: Array,
+    offset: Array,
+    starts: Index,
+    is_norm: Mask,
+    signs: Array,
+    contacts: Index,
+    y: Array,
+) -> tuple[Array, Array]:
     """(phi_j on the sides ``signs``, gradients (k, r)) of the ``contacts``."""
     values = np.empty(contacts.size)
     gradients = np.zeros((contacts.size, y.size))
@@ -130,7 +193,17 @@ def _gradients(matrix, offset, starts, is_norm, signs, contacts, y):
 
 
 @njit
-def _gradients_into(matrix, offset, starts, is_norm, signs, contacts, y, values, gradients):
+def _gradients_into(
+    matrix: Array,
+    offset: Array,
+    starts: Index,
+    is_norm: Mask,
+    signs: Array,
+    contacts: Index,
+    y: Array,
+    values: Array,
+    gradients: Array,
+) -> None:
     """:func:`_gradients` written into ``values`` (k,) and ``gradients`` (k, r) (Newton's
     iterations re-use them: an allocation costs more than these few products)."""
     r = y.size
@@ -155,7 +228,9 @@ def _gradients_into(matrix, offset, starts, is_norm, signs, contacts, y, values,
 
 
 @njit
-def _hessian(matrix, starts, is_norm, contacts, multipliers, r):
+def _hessian(
+    matrix: Array, starts: Index, is_norm: Mask, contacts: Index, multipliers: Array, r: int
+) -> Array:
     r""":math:`\nabla^2 L = \sum_{j \in A,\ norm} 2 \lambda_j P_j^T P_j`, (r, r)."""
     hessian = np.zeros((r, r))
     _hessian_into(matrix, starts, is_norm, contacts, multipliers, hessian)
@@ -163,7 +238,9 @@ def _hessian(matrix, starts, is_norm, contacts, multipliers, r):
 
 
 @njit
-def _hessian_into(matrix, starts, is_norm, contacts, multipliers, out):
+def _hessian_into(
+    matrix: Array, starts: Index, is_norm: Mask, contacts: Index, multipliers: Array, out: Array
+) -> None:
     """:func:`_hessian` written into the top-left (r, r) block of ``out``."""
     r = matrix.shape[1]
     for c in range(r):
@@ -182,7 +259,7 @@ def _hessian_into(matrix, starts, is_norm, contacts, multipliers, out):
 
 
 @njit
-def _lu_solve(matrix, right):
+def _lu_solve(matrix: Array, right: Array) -> tuple[bool, Array]:
     """x with matrix x = right by Gaussian elimination with partial pivoting; ok False when a
     pivot is zero or not finite (the matrix is singular)."""
     a = np.empty_like(matrix)
@@ -191,7 +268,7 @@ def _lu_solve(matrix, right):
 
 
 @njit
-def _lu_solve_into(matrix, right, a, x):
+def _lu_solve_into(matrix: Array, right: Array, a: Array, x: Array) -> bool:
     """:func:`_lu_solve` in the workspaces ``a`` (n, n) and ``x`` (n,) (x holds the solution):
     ok."""
     size = right.size
@@ -223,8 +300,9 @@ def _lu_solve_into(matrix, right, a, x):
 
 
 @njit
-def _newton(matrix, offset, starts, is_norm, objective, y, lam, signs, contacts, iterations,
-            accept, tolerances):  # fmt: skip
+def _newton(matrix: Array, offset: Array, starts: Index, is_norm: Mask, objective: Array, y: Array,
+            lam: Array, signs: Array, contacts: Index, iterations: int, accept: float,
+            tolerances: Array) -> tuple[bool, Array, Array, Array]:  # fmt: skip
     """Newton on the KKT system of ``contacts`` (:func:`.kkt.newton` without its projected and
     least-squares steps); (ok, y, lambda_A, G_A)."""
     r = y.size
@@ -296,7 +374,7 @@ def _newton(matrix, offset, starts, is_norm, objective, y, lam, signs, contacts,
 
 
 @njit
-def _singular_values(matrix):
+def _singular_values(matrix: Array) -> tuple[Array, Array, Array]:
     """Singular values and right singular vectors (columns of V) of ``matrix`` (m, n) by one-sided
     Jacobi rotations (Hestenes): the columns of A V become orthogonal, their norms the singular
     values (accurate to round-off of the largest, as LAPACK's)."""
@@ -338,7 +416,7 @@ def _singular_values(matrix):
 
 
 @njit
-def _minimum_norm_solution(matrix, right):
+def _minimum_norm_solution(matrix: Array, right: Array) -> Array:
     r"""The minimum-norm least-squares solution of ``matrix`` x = ``right`` (numpy.linalg.lstsq's,
     its rank rule: singular values above eps max(m, n) of the largest count), from the Jacobi
     SVD :math:`A V = U \Sigma`: :math:`x = \sum_j V_j (U_j^T b) / \sigma_j`."""
@@ -360,7 +438,7 @@ def _minimum_norm_solution(matrix, right):
 
 
 @njit
-def _surely_full_rank(rows, rtol):
+def _surely_full_rank(rows: Array, rtol: float) -> bool:
     """:func:`.prepared._surely_full_rank`: a Cholesky factor of R^T R - t I exists,
     t = max(rtol, 1e-6)^2 |R|_F^2 (every squared singular value above t)."""
     n = rows.shape[1]
@@ -394,7 +472,7 @@ def _surely_full_rank(rows, rtol):
 
 
 @njit
-def _row_basis(gradients, rtol):
+def _row_basis(gradients: Array, rtol: float) -> tuple[Array, Array, int, bool]:
     r"""Modified Gram-Schmidt on the rows g_a of ``gradients`` (k, r), each orthogonalised twice
     (accurate to round-off): (Q (k, r), its first ``rank`` rows an orthonormal basis of the rows'
     span, R (k, k) with :math:`g_a = \sum_b R_{ba} q_b`, rank, independent). A row left with less
@@ -429,7 +507,7 @@ def _row_basis(gradients, rtol):
 
 
 @njit
-def _least_squares_forces(gradients, objective):
+def _least_squares_forces(gradients: Array, objective: Array) -> Array:
     r"""The minimum-norm least-squares solution of :math:`G^T \lambda = -f` (numpy.linalg.lstsq's):
     from the Gram-Schmidt factors when the rows of G are independent to 1e-10 (back
     substitution :math:`R \lambda = -Q f`), else by the Jacobi SVD."""
@@ -453,7 +531,16 @@ def _least_squares_forces(gradients, objective):
 
 
 @njit
-def _flat_directions(matrix, offset, starts, is_norm, y, multipliers, signs, tolerances):
+def _flat_directions(
+    matrix: Array,
+    offset: Array,
+    starts: Index,
+    is_norm: Mask,
+    y: Array,
+    multipliers: Array,
+    signs: Array,
+    tolerances: Array,
+) -> Array:
     """:meth:`.prepared.PreparedGeometry.flat_directions`: an orthonormal basis (r, k) of the
     directions along which the optimum is not unique (G_loaded d = 0 and Hessian d = 0, to 1e-9
     of the largest)."""
@@ -501,7 +588,16 @@ def _flat_directions(matrix, offset, starts, is_norm, y, multipliers, signs, tol
 
 
 @njit
-def _contact_to_release(matrix, offset, starts, is_norm, objective, y, signs, contacts):
+def _contact_to_release(
+    matrix: Array,
+    offset: Array,
+    starts: Index,
+    is_norm: Mask,
+    objective: Array,
+    y: Array,
+    signs: Array,
+    contacts: Index,
+) -> int:
     """:func:`.kkt._contact_to_release`: the active contact whose least-squares multiplier is most
     negative (it pulls), else the most open one if it is not quite touching; -1 if none."""
     if contacts.size <= 1:
@@ -510,13 +606,22 @@ def _contact_to_release(matrix, offset, starts, is_norm, objective, y, signs, co
     least = _least_squares_forces(gradients, objective)
     lowest = np.argmin(least)
     if least[lowest] < -1e-12:
-        return contacts[lowest]
+        return int(contacts[lowest])
     most_open = np.argmin(values)
-    return contacts[most_open] if values[most_open] < -1e-14 else -1
+    return int(contacts[most_open]) if values[most_open] < -1e-14 else -1
 
 
 @njit
-def _unbalanced_motion(matrix, offset, starts, is_norm, objective, y, signs, contacts):
+def _unbalanced_motion(
+    matrix: Array,
+    offset: Array,
+    starts: Index,
+    is_norm: Mask,
+    objective: Array,
+    y: Array,
+    signs: Array,
+    contacts: Index,
+) -> Array:
     """-f projected orthogonally to the gradients of ``contacts`` at y (their Gram-Schmidt
     basis, applied twice: orthogonal to round-off): the motion along which the load is not held."""
     r = y.size
@@ -534,7 +639,17 @@ def _unbalanced_motion(matrix, offset, starts, is_norm, objective, y, signs, con
 
 
 @njit
-def _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs, contacts, active):
+def _step_to_next_contact(
+    matrix: Array,
+    offset: Array,
+    starts: Index,
+    is_norm: Mask,
+    objective: Array,
+    y: Array,
+    signs: Array,
+    contacts: Index,
+    active: Mask,
+) -> int:
     """:func:`.kkt._step_to_next_contact`: move y in place along the load's unbalanced part,
     tangent to the active contacts, to the first contact it meets; that contact's index, or -1
     when no contact bounds that motion. Tangent: orthogonal to the active gradients (their
@@ -554,7 +669,17 @@ def _step_to_next_contact(matrix, offset, starts, is_norm, objective, y, signs, 
 
 
 @njit
-def _step_along_boundary(matrix, offset, starts, is_norm, objective, y, signs, contacts, active):
+def _step_along_boundary(
+    matrix: Array,
+    offset: Array,
+    starts: Index,
+    is_norm: Mask,
+    objective: Array,
+    y: Array,
+    signs: Array,
+    contacts: Index,
+    active: Mask,
+) -> int:
     r""":func:`_step_to_next_contact` for the start from the centre, where the parts travel far:
     the tangent step leaves a curved (ball, disc) contact of the set by the square of its
     length, so a step moves no active contact's image by more than :data:`BOUNDARY_STEP` of its
@@ -596,7 +721,15 @@ def _step_along_boundary(matrix, offset, starts, is_norm, objective, y, signs, c
 
 
 @njit
-def _restore(matrix, offset, starts, is_norm, y, signs, contacts):
+def _restore(
+    matrix: Array,
+    offset: Array,
+    starts: Index,
+    is_norm: Mask,
+    y: Array,
+    signs: Array,
+    contacts: Index,
+) -> None:
     r"""y moved in place back onto the contacts' surfaces, :math:`\phi_A(y) = 0`, by at most 8
     minimum-norm Gauss-Newton steps :math:`\delta = -G_A^+ \phi_A` (Gram-Schmidt factors
     :math:`G_A = R^T Q`: forward substitution :math:`R^T z = -\phi_A`, :math:`\delta = Q^T z`;
@@ -625,7 +758,16 @@ def _restore(matrix, offset, starts, is_norm, y, signs, contacts):
 
 
 @njit
-def _first_contact_along(matrix, offset, starts, is_norm, y, direction, active, limit):
+def _first_contact_along(
+    matrix: Array,
+    offset: Array,
+    starts: Index,
+    is_norm: Mask,
+    y: Array,
+    direction: Array,
+    active: Mask,
+    limit: float,
+) -> tuple[float, int]:
     """(t, j): the first contact j outside ``active`` that y + t direction meets, 0 <= t <
     ``limit`` (ball, disc: the larger root of |image + t moved|^2 = 1; slab: its side's plane);
     (inf, -1) when none does."""
@@ -660,7 +802,16 @@ def _first_contact_along(matrix, offset, starts, is_norm, y, direction, active, 
 
 
 @njit
-def _multiplier_estimate(matrix, offset, starts, is_norm, objective, y, signs, contacts):
+def _multiplier_estimate(
+    matrix: Array,
+    offset: Array,
+    starts: Index,
+    is_norm: Mask,
+    objective: Array,
+    y: Array,
+    signs: Array,
+    contacts: Index,
+) -> Array:
     r"""Newton's starting multipliers of ``contacts`` at y: the least-squares solution of the
     stationarity :math:`G_A^T \lambda = -f` (minimum norm), negative values set to zero. The new
     load's own estimate, not the previous answer's multipliers: from those, Newton diverged on a
@@ -673,7 +824,9 @@ def _multiplier_estimate(matrix, offset, starts, is_norm, objective, y, signs, c
 
 
 @njit
-def kkt_residuals(objective, gradients, contacts, multipliers, phi):
+def kkt_residuals(
+    objective: Array, gradients: Array, contacts: Index, multipliers: Array, phi: Array
+) -> Array:
     """The kernel's copy of :func:`.kkt.kkt_table` for one answer (tested against it): the
     stationarity :math:`\\lVert f + \\sum_a \\lambda_{c_a} \\nabla\\phi_{c_a} \\rVert_\\infty` over
     the contacts ``contacts`` whose gradients are the rows of ``gradients``, feasibility
@@ -693,8 +846,10 @@ def kkt_residuals(objective, gradients, contacts, multipliers, phi):
 
 
 @njit
-def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs0, accept,
-                     rounds, iterations, tolerances, primal=False):  # fmt: skip
+def verified_optimum(matrix: Array, offset: Array, starts: Index, is_norm: Mask, objective: Array,
+                     y0: Array, lam0: Array, signs0: Array, accept: float, rounds: int,
+                     iterations: int, tolerances: Array,
+                     primal: bool = False) -> Optimum:  # fmt: skip
     """The verified active-set method of :func:`.kkt.active_set_solve` from a guess
     (y0, lambda0, slab sides), then the flat directions, the minimum-norm point along them.
     ``primal`` (the start from the centre): Newton from the least-squares multipliers, steps
@@ -855,9 +1010,12 @@ def verified_optimum(matrix, offset, starts, is_norm, objective, y0, lam0, signs
 
 
 @njit
-def answer_arrays(y, multipliers, signs, sigma, scaled_gradient, load_size, x_from_y, torsor_rows,
-                  twist_rows, contact_rows, contact_offsets, contact_starts, bounds, row_contact,
-                  norm_force, slab_force, reactions, scale, statics_weights):  # fmt: skip
+def answer_arrays(y: Array, multipliers: Array, signs: Array, sigma: float,
+                  scaled_gradient: Array, load_size: float, x_from_y: Array, torsor_rows: Array,
+                  twist_rows: Array, contact_rows: Array, contact_offsets: Array,
+                  contact_starts: Index, bounds: Array, row_contact: Index, norm_force: Array,
+                  slab_force: Array, reactions: Array, scale: Array,
+                  statics_weights: Array) -> AnswerArrays:  # fmt: skip
     r"""The answer's arrays (:func:`.linear_answer.assemble_linear`): x = Z Q y, joint torsors,
     body twists, contact gaps [m] and force rows [N]
     (:math:`f = -2\sigma\lambda_j (o_j + S_j x) / c_j^2`, slab :math:`-\sigma\lambda_j s_j / c_j`),
@@ -913,7 +1071,7 @@ def answer_arrays(y, multipliers, signs, sigma, scaled_gradient, load_size, x_fr
 
 
 @njit
-def _nearest_row(rows, count, vector):
+def _nearest_row(rows: Array, count: int, vector: Array) -> int:
     """The index of the row among the first ``count`` of ``rows`` nearest ``vector``."""
     best, nearest = np.inf, 0
     for i in range(count):
@@ -935,11 +1093,16 @@ FROM_GUESS, FROM_NEIGHBOUR, FROM_CENTRE = 0, 1, 2
 
 
 @njit(cache=True, nogil=True)  # nogil: a batch's chunks run on threads at once
-def solve_cases(params, load_matrix, load_constant, load_rows, n, weights, matrix, offset,
-                starts, is_norm, y0, lam0, signs0, accept, warm_rounds, rounds, iterations,
-                tolerances, x_from_y, torsor_rows, twist_rows, contact_rows, contact_offsets,
-                bounds, row_contact, norm_force, slab_force, reactions, scale, statics_weights,
-                chain, allow_flat, pool_f, pool_y, pool_lam, pool_signs, pool_state, pooled):  # fmt: skip
+def solve_cases(params: Array, load_matrix: Array, load_constant: Array, load_rows: Array,
+                n: int, weights: Array, matrix: Array, offset: Array, starts: Index,
+                is_norm: Mask, y0: Array, lam0: Array, signs0: Array, accept: float,
+                warm_rounds: int, rounds: int, iterations: int, tolerances: Array,
+                x_from_y: Array, torsor_rows: Array, twist_rows: Array, contact_rows: Array,
+                contact_offsets: Array, bounds: Array, row_contact: Index, norm_force: Array,
+                slab_force: Array, reactions: Array, scale: Array, statics_weights: Array,
+                chain: bool, allow_flat: bool, pool_f: Array, pool_y: Array, pool_lam: Array,
+                pool_signs: Array, pool_state: Index,
+                pooled: bool) -> tuple[Array, Array]:  # fmt: skip
     """Load cases (rows of ``params``, (N, 3 k)) solved in sequence: objective
     (:func:`load_objective`), the verified optimum (:func:`verified_optimum`) in ``warm_rounds``
     active-set rounds from the guess (y0, lambda0, sides) or, with ``chain``, from the previous
