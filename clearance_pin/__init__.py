@@ -20,6 +20,7 @@ from .equilibrium.method import Method
 from .equilibrium.result import Contact, Equilibrium
 from .errors import (
     ArgumentError,
+    CaseIndexError,
     ClearancePinError,
     ClearancePinWarning,
     ConditioningWarning,
@@ -59,6 +60,7 @@ __all__ = [
     "ArgumentError",
     "ModelError",
     "NotFoundError",
+    "CaseIndexError",
     "LoadError",
     "UnboundedLoadError",
     "SingularPositionError",

@@ -65,6 +65,11 @@ def _short_repr(value: object, limit: int = 80) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+class CaseIndexError(ClearancePinError, IndexError):
+    """A case index beyond a batch (also an ``IndexError``: a batch is a sequence, iterated
+    until its first index out of range)."""
+
+
 class NotFoundError(ClearancePinError, KeyError):
     """A name that is looked up does not exist (a joint, frame, link, output, dimension...).
 

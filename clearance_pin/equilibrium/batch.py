@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, overload
 import numpy as np
 
 from ..arguments import check_errors
-from ..errors import ArgumentError, ClearancePinError, NotFoundError
+from ..errors import ArgumentError, CaseIndexError, ClearancePinError, NotFoundError
 from ..model.couplings import coupled
 from ..model.frames import frame_id as find_frame
 from ..model.stiffness import stiff_joints
@@ -99,7 +99,7 @@ class EquilibriumBatch(Sequence[Item]):
         if isinstance(index, slice):
             return [self[i] for i in range(*index.indices(len(self)))]
         if not -len(self._items) <= index < len(self._items):
-            raise IndexError(f"case {index} of a batch of {len(self._items)} cases")
+            raise CaseIndexError(f"case {index} of a batch of {len(self._items)} cases")
         pending: Pending = self._items[index]
         if pending is None:
             assert self._build is not None  # None items come with what builds them
