@@ -127,6 +127,18 @@ def paired_case(case: wp.Case, repeats: int, seed: int) -> dict:
             [lambda v=v: mechanism.solve(built(v), warm_start=False) for v in vectors],
         ),
     }
+    array = np.array(vectors)
+
+    def objects(order: np.ndarray) -> None:
+        result = mechanism.solve_many([loads[i] for i in order], progress=False)
+        for joint in case.joints:
+            result.torsors(joint)
+
+    def arrays(order: np.ndarray) -> None:
+        result = resolver.solve_many(array[order], progress=False)
+        for joint in case.joints:
+            result.torsors(joint)
+
     out: dict = {path: {} for path in PATHS}
     for name, (peer, tol) in PEERS.items():
         prebuilt = peer(case.shaft, nominal, tol)
@@ -143,49 +155,33 @@ def paired_case(case: wp.Case, repeats: int, seed: int) -> dict:
                 times[0].append(pair[0])
                 times[1].append(pair[1])
             out[path][name] = _summary(*times)
-        rng = np.random.default_rng(seed)
-        times = ([], [])
-        for k in range(repeats):
-            order = rng.permutation(len(loads))
-            shuffled = [loads[i] for i in order]
-            wp.forget_answers(mechanism)
-            gc.collect()
-
-            def batch(shuffled=shuffled):
-                result = mechanism.solve_many(shuffled, progress=False)
-                for joint in case.joints:
-                    result.torsors(joint)
-
-            def loop(order=order, solver=prebuilt):
-                for i in order:
-                    solver.solve(*peer_loads[i])
-
-            pair = _pair(batch, loop, k % 2 == 0)
-            times[0].append(pair[0] / len(loads))
-            times[1].append(pair[1] / len(loads))
-        out["batch"][name] = _summary(*times)
-        array = np.array(vectors)
-        times = ([], [])
-        for k in range(repeats):
-            order = rng.permutation(len(loads))
-            wp.forget_answers(mechanism)
-            gc.collect()
-
-            def arrays(order=order, array=array):
-                result = resolver.solve_many(array[order], progress=False)
-                for joint in case.joints:
-                    result.torsors(joint)
-
-            def peer_loop(order=order, solver=prebuilt):
-                for i in order:
-                    solver.solve(*peer_loads[i])
-
-            pair = _pair(arrays, peer_loop, k % 2 == 0)
-            times[0].append(pair[0] / len(loads))
-            times[1].append(pair[1] / len(loads))
-        out["arrays"][name] = _summary(*times)
+        for path, ours in (("batch", objects), ("arrays", arrays)):
+            out[path][name] = _batch_pairs(
+                mechanism, ours, lambda i, p=prebuilt: p.solve(*peer_loads[i]), len(loads),
+                repeats, seed,
+            )  # fmt: skip
     out["floor"] = _floor(case)
     return out
+
+
+def _batch_pairs(mechanism, ours, peer, count: int, repeats: int, seed: int) -> dict:
+    """``ours(order)`` (a whole batch in a new random order) against ``peer(i)`` in a loop over
+    the same order, ``repeats`` times alternating which runs first; per-case times."""
+    rng = np.random.default_rng(seed)
+    times: tuple[list[float], list[float]] = ([], [])
+    for k in range(repeats):
+        order = rng.permutation(count)
+        wp.forget_answers(mechanism)
+        gc.collect()
+
+        def loop(order=order):
+            for i in order:
+                peer(i)
+
+        pair = _pair(lambda order=order: ours(order), loop, k % 2 == 0)
+        times[0].append(pair[0] / count)
+        times[1].append(pair[1] / count)
+    return _summary(*times)
 
 
 def _floor(case: wp.Case) -> dict:

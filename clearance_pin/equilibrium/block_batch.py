@@ -37,7 +37,7 @@ from .cache import LeastRecentlyUsed
 from .formulation import solve_with_options
 from .kkt import RESIDUAL_NAMES
 from .linear_answer import assemble_linear
-from .load_table import LoadTable, LoadVectors, body_wrenches, load_table
+from .load_table import LoadTable, LoadVectors, body_wrenches, load_table, repeated
 from .method import Method
 from .options import SolveOptions
 from .outputs import resolve_outputs
@@ -238,7 +238,7 @@ def solve_configurations(
     )
     if shared:  # one load table, repeated (the loads are the same at every point)
         one = load_table(mechanism, [None], options.gravity)
-        table = _repeated(one, len(cases))
+        table = repeated(one, len(cases))
     else:
         table = load_table(mechanism, cases.load_column(), options.gravity)
     wrenches, moments = body_wrenches(table, rotations, translations, prepared.bodies, True)
@@ -275,21 +275,6 @@ def solve_blocks(
         return None
     solve = solve_configurations if along else solve_load_cases
     return solve(mechanism, cases, options, errors, progress)
-
-
-def _repeated(table: LoadTable, count: int) -> LoadTable:
-    """A one-case load table repeated for ``count`` cases."""
-    rows = table.case.size
-    return replace(
-        table,
-        count=count,
-        case=np.repeat(np.arange(count, dtype=np.intp), rows),
-        body=np.tile(table.body, count),
-        force=np.tile(table.force, (count, 1)),
-        point=np.tile(table.point, (count, 1)),
-        torque=np.tile(table.torque, (count, 1)),
-        valid=np.repeat(table.valid, count),
-    )
 
 
 def _finish(

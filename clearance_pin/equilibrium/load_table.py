@@ -237,10 +237,10 @@ def _vector_table(mechanism: Mechanism, cases: LoadVectors, gravity: object) -> 
     the force or torque columns of a varying load replaced by its vectors."""
     count = len(cases)
     fixed = [load for k, load in enumerate(cases.template) if k not in cases.varying]
-    parts = [_repeated_rows(load_table(mechanism, [fixed], False), count)]
+    parts = [repeated(load_table(mechanism, [fixed], False), count)]
     for k, position in enumerate(cases.varying):
         one = load_table(mechanism, [[cases.template[position]]], False)
-        rows = _repeated_rows(one, count)
+        rows = repeated(one, count)
         if one.body.size:  # a load on the ground has no row: it does no work
             vectors = cases.vectors[:, 3 * k : 3 * k + 3]
             is_force = type(cases.template[position]) is PointForce
@@ -263,8 +263,9 @@ def _vector_table(mechanism: Mechanism, cases: LoadVectors, gravity: object) -> 
     )
 
 
-def _repeated_rows(one: LoadTable, count: int) -> LoadTable:
-    """The rows of a one-case table ``one`` for ``count`` cases, case by case."""
+def repeated(one: LoadTable, count: int) -> LoadTable:
+    """The rows of a one-case table ``one`` for ``count`` cases, case by case (the loads the
+    same in every case)."""
     size = one.body.size
     return replace(
         one,
@@ -274,7 +275,7 @@ def _repeated_rows(one: LoadTable, count: int) -> LoadTable:
         force=np.tile(one.force, (count, 1)),
         point=np.tile(one.point, (count, 1)),
         torque=np.tile(one.torque, (count, 1)),
-        valid=np.ones(count, dtype=bool),
+        valid=np.repeat(one.valid, count),
     )
 
 
@@ -424,4 +425,5 @@ __all__ = [
     "body_wrenches",
     "centred_wrenches",
     "load_table",
+    "repeated",
 ]

@@ -283,6 +283,35 @@ def play_outlines(joint: JointMark, m: float) -> list[FloatArray]:
     return []
 
 
+def play_segments(joint: JointMark, m: float) -> list[tuple[FloatArray, FloatArray]]:
+    """The outlines of ``joint``'s play magnified m times (:func:`play_outlines`) as segments."""
+    return [
+        (ring[i], ring[i + 1]) for ring in play_outlines(joint, m) for i in range(len(ring) - 1)
+    ]
+
+
+def force_arrows(
+    bones: Skeleton, m: float, fraction: float
+) -> list[tuple[str, str, tuple[FloatArray, FloatArray]]]:
+    """The force arrows of a 3-D view, (group ``"contacts"`` or ``"loads"``, label, segment):
+    each active contact's force ending at its magnified point, each applied load starting at
+    its own, the largest force drawn ``fraction`` of the mechanism's size long [m/N alike]."""
+    largest = max(
+        [float(np.linalg.norm(c.force)) for c in bones.active_contacts]
+        + [float(np.linalg.norm(f.force)) for f in bones.loads]
+        + [0.0]
+    )
+    per_newton = fraction * bones.size() / largest if largest > 0.0 else 0.0  # [m/N]
+    arrows = []
+    for contact in bones.active_contacts:
+        at = magnify(contact.point, contact.moved, m)
+        arrows.append(("contacts", contact.label, (at - contact.force * per_newton, at)))
+    for load in bones.loads:
+        at = magnify(load.point, load.moved, m)
+        arrows.append(("loads", load.label, (at, at + load.force * per_newton)))
+    return arrows
+
+
 def skeleton(equilibrium: Equilibrium) -> Skeleton:
     """The :class:`Skeleton` of ``equilibrium``'s mechanism, nominal and settled.
 

@@ -52,8 +52,9 @@ from .skeleton import (
     DISPLACEMENT_FRACTION,
     FloatArray,
     Skeleton,
+    force_arrows,
     magnify,
-    play_outlines,
+    play_segments,
     skeleton,
 )
 from .style import nice_round, number
@@ -600,24 +601,10 @@ def _draw_skeleton(
         at[:3, 3] = magnify(joint.journal, joint.journal_moved, m)
         viewer[path].set_transform(at)
         sent.append(path)
-        rings = [
-            (ring[i], ring[i + 1]) for ring in play_outlines(joint, m) for i in range(len(ring) - 1)
-        ]
-        lines(f"{root}/play/{_name(joint.name)}", rings, COLOURS["play"])
-    largest = max(
-        [float(np.linalg.norm(c.force)) for c in bones.active_contacts]
-        + [float(np.linalg.norm(f.force)) for f in bones.loads]
-        + [0.0]
-    )
-    per_newton = FORCE_FRACTION * size / largest if largest > 0.0 else 0.0  # [m/N]
-    for contact in bones.active_contacts:
-        at = magnify(contact.point, contact.moved, m)
-        lines(f"{root}/contacts/{_name(contact.label)}", [(at - contact.force * per_newton, at)],
-              COLOURS["contact"])  # fmt: skip
-    for load in bones.loads:
-        at = magnify(load.point, load.moved, m)
-        lines(f"{root}/loads/{_name(load.label)}", [(at, at + load.force * per_newton)],
-              COLOURS["load"])  # fmt: skip
+        lines(f"{root}/play/{_name(joint.name)}", play_segments(joint, m), COLOURS["play"])
+    for group, label, segment in force_arrows(bones, m, FORCE_FRACTION):
+        colour = COLOURS["contact" if group == "contacts" else "load"]
+        lines(f"{root}/{group}/{_name(label)}", [segment], colour)
     return sent
 
 

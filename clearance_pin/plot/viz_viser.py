@@ -25,7 +25,7 @@ import numpy as np
 
 from ..equilibrium.result import Equilibrium
 from ..errors import ClearancePinError, ClearancePinWarning
-from .skeleton import FloatArray, Skeleton, magnify, play_outlines
+from .skeleton import FloatArray, Skeleton, force_arrows, magnify, play_segments
 from .viz import (
     CAMERA,
     COLOURS,
@@ -174,24 +174,10 @@ def _skeleton(server: Any, bones: Skeleton, m: float, root: str) -> dict[str, An
             path, radius=0.008 * size, color=_rgb(COLOURS["settled"]),
             position=tuple(float(v) for v in magnify(joint.journal, joint.journal_moved, m)),
         )  # fmt: skip
-        rings = [
-            (ring[i], ring[i + 1]) for ring in play_outlines(joint, m) for i in range(len(ring) - 1)
-        ]
-        lines(f"{root}/play/{_name(joint.name)}", rings, COLOURS["play"], 1.5)
-    largest = max(
-        [float(np.linalg.norm(c.force)) for c in bones.active_contacts]
-        + [float(np.linalg.norm(f.force)) for f in bones.loads]
-        + [0.0]
-    )
-    per_newton = FORCE_FRACTION * size / largest if largest > 0.0 else 0.0  # [m/N]
-    for contact in bones.active_contacts:
-        at = magnify(contact.point, contact.moved, m)
-        lines(f"{root}/contacts/{_name(contact.label)}", [(at - contact.force * per_newton, at)],
-              COLOURS["contact"], 2.0)  # fmt: skip
-    for load in bones.loads:
-        at = magnify(load.point, load.moved, m)
-        lines(f"{root}/loads/{_name(load.label)}", [(at, at + load.force * per_newton)],
-              COLOURS["load"], 2.0)  # fmt: skip
+        lines(f"{root}/play/{_name(joint.name)}", play_segments(joint, m), COLOURS["play"], 1.5)
+    for group, label, segment in force_arrows(bones, m, FORCE_FRACTION):
+        colour = COLOURS["contact" if group == "contacts" else "load"]
+        lines(f"{root}/{group}/{_name(label)}", [segment], colour, 2.0)
     return handles
 
 
