@@ -222,6 +222,23 @@ def test_resolver_solve_many_grid_of_payloads_and_poses():
         assert np.abs(shifts[i * 3 + n] - moved).max() <= 1e-12 + 1e-9 * np.abs(moved).max()
 
 
+def test_resolver_solve_many_at_the_resolvers_configuration():
+    """A resolver built at a configuration q solves its many cases there, as solve(values)."""
+    path = str(ROOT / "models" / "arm_6r.urdf")
+    arm = clearance_pin.load(path)
+    q = arm.q_nominal + 0.2
+    resolver = arm.resolver(q=q)
+    values = np.array([[0.0, 0.0, -50.0], [10.0, 0.0, -30.0]])
+    batch = resolver.solve_many(values)
+    for n in range(2):
+        np.testing.assert_allclose(
+            batch.frame_displacements("tool")[0][n],
+            resolver.solve(values[n]).frame_displacement("tool")[0],
+            rtol=0.0,
+            atol=1e-15,
+        )
+
+
 def test_resolver_solve_many_refuses_bad_arrays():
     """Wrong shapes, non-finite entries and magnitudes beyond double precision name the
     argument (and the case)."""

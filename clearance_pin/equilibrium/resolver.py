@@ -156,16 +156,19 @@ class Resolver:
         Returns the :class:`~.batch.EquilibriumBatch` of ``Mechanism.solve_many`` (its
         whole-batch readers give arrays: ``frame_displacements``, ``reactions``,
         ``contact_forces``, ``drive_torques``), the same answers as ``solve_many`` of the load
-        objects; ``errors`` and ``progress`` as there.
+        objects; ``errors`` and ``progress`` as there. Without ``configurations`` every case is
+        at the resolver's configuration (its ``q``).
         """
         from .batch import solve_many
 
         vectors = self._vectors(values)
-        poses = None
+        poses = None  # every case at the resolver's own configuration
         if configurations is not None:
             poses = self._poses(configurations)
             vectors = np.tile(vectors, (len(poses), 1))
             poses = [q for q in poses for _ in range(len(vectors) // len(poses))]
+        elif self._q is not None:
+            poses = [self._q] * len(vectors)
         check_errors(errors)
         return solve_many(
             self.mechanism,
