@@ -88,7 +88,7 @@ def check_configuration(
     if not np.all(np.isfinite(array)):
         raise ArgumentError(argument, expected, q, "not finite")
     if warn:
-        # stacklevel 5: the caller of Mechanism.solve (check_solve and this function between)
+        # stacklevel 5: the caller of Mechanism.solve (check_case and this function between)
         values = plausibility.configuration_values(mechanism.model, array)
         plausibility.warn_nominal_values(
             mechanism, values, source=f"{mechanism.source}: {argument}", stacklevel=5
