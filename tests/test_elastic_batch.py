@@ -15,6 +15,7 @@ import pytest
 
 import clearance_pin
 from clearance_pin import PointForce
+from clearance_pin.equilibrium.batch_reactions import PARTS
 
 ROOT = Path(__file__).resolve().parents[1]
 DRIVE = [4e4, 3e4, 2e4, 8e3, 6e3, 5e3]  # [N m/rad], shoulder to wrist
@@ -117,3 +118,25 @@ def test_the_springs_alone_give_pinocchio_compliance():
     # the tool link's origin is the load point here (tool.point is its origin)
     np.testing.assert_allclose(shifts[0], expected[:, :3], rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(shifts[1], expected[:, 3:], rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize("play", [True, False])
+def test_a_trees_whole_reactions_are_its_parts_summed(play):
+    """A tree's whole reaction read by subtree statics (batch_reactions.whole_tree_reaction)
+    equals the sum of its parts (contact, rigid, drive, held) that the reactions reader solves
+    from the contact forces, in both frames, on a payload x pose grid (two routes, one
+    statics)."""
+    arm = _arm(play)
+    tool = next(load for load in arm.loads if isinstance(load, PointForce))
+    rng = np.random.default_rng(8)
+    poses = [arm.q_nominal + 0.3 * rng.standard_normal(arm.model.nq) for _ in range(5)]
+    payloads = np.array([[0.0, 0.0, -9.81 * kg] for kg in (0.5, 2.0, 5.0)])
+    grid = arm.resolver([tool], gravity=True).solve_many(payloads, configurations=poses)
+    play_batch = grid.play if hasattr(grid, "play") else grid
+    for joint in arm.joints:
+        for frame in ("joint", "world"):
+            whole = play_batch.reactions(joint, frame)
+            parts = sum(play_batch.reactions(joint, frame, part) for part in PARTS)
+            scale = np.abs(whole).max()
+            assert scale > 1.0
+            np.testing.assert_allclose(whole, parts, rtol=0.0, atol=1e-9 * scale)

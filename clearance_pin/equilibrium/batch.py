@@ -28,7 +28,7 @@ from ..numerics import Array, Mask
 from ..progress import Progress
 from .batch_answers import StackedAnswers, contact_forces, frame_displacements
 from .batch_newton import batched_newton, stacked_evaluation
-from .batch_reactions import PARTS, stacked_reactions
+from .batch_reactions import PARTS, stacked_reactions, whole_tree_reaction
 from .cone_solver import ConeSolution, acceptance
 from .fast_path import WARM_ROUNDS, FastTerms, fast_terms
 from .formulation import solve_with_options
@@ -209,6 +209,9 @@ class EquilibriumBatch(Sequence[Item]):
         self._check_joint(joint)
 
         def from_arrays(answers: StackedAnswers) -> tuple[Array, Mask]:
+            whole = None if part is not None else whole_tree_reaction(answers, joint, frame)
+            if whole is not None:  # a tree's: the statics of the subtree, no split needed
+                return whole, answers.stacked & np.all(np.isfinite(whole), axis=1)
             reactions = stacked_reactions(answers)
             values = reactions.reaction(joint, frame, part)
             return values, answers.stacked & np.all(np.isfinite(values), axis=1)
@@ -450,7 +453,12 @@ def solve_many(
     check_errors(errors)
     cases = _cases(mechanism, loads, configurations)
     exact, backend = options.exact, options.backend
-    if not exact and not mechanism.loop_joints and stiff_joints(mechanism.joints):
+    if (
+        not exact
+        and not mechanism.loop_joints
+        and not mechanism.couplings
+        and stiff_joints(mechanism.joints)
+    ):
         from .elastic_batch import solve_superposed  # a tree's springs: its rigid twin's batch
 
         return solve_superposed(mechanism, cases, options, errors, progress, executor, chunks)

@@ -84,6 +84,68 @@ class StackedReactions:
         return total
 
 
+def tree_reactions(
+    mechanism: Any, load_column: Any, gravity: Any, rotations: Array, translations: Array
+) -> dict[str, Array]:
+    r"""Per tree joint of a tree, its reaction in every case (the parent part's wrench on the
+    child), (N, 6) [N, N m], its clearance frame, moment about the joint centre, from the statics
+    of the subtree it carries, :math:`R_j = -\sum_{b \in \mathrm{subtree}(j)} L_b` (the contact
+    forces inside the subtree are internal): the loads of every case as rows
+    (:func:`.load_table.load_table`), summed per body about the world origin
+    (:func:`.load_table.body_wrenches`), then from the leaves to the root. Body placements (K,
+    bodies, 3, 3), (K, bodies, 3) [m], K = N (a trajectory) or 1; the cases' loads
+    ``load_column`` (None: the model's) with the solve's ``gravity`` option. A tree without
+    couplings only: a coupling carries torque between joints, a loop closes through its joint."""
+    model = mechanism.model
+    table = load_table(mechanism, load_column, gravity)
+    wrenches, about = body_wrenches(
+        table, rotations, translations, model.njoints, per_case=len(rotations) > 1
+    )
+    force, moment = wrenches[..., :3].copy(), about.copy()  # (N, bodies, 3), world origin
+    for i in range(model.njoints - 1, 0, -1):  # a child before its parent
+        force[:, model.parents[i]] += force[:, i]
+        moment[:, model.parents[i]] += moment[:, i]
+    out = {}
+    for joint in mechanism.tree_joints:
+        i = joint.joint_id
+        axes = rotations[:, i] @ joint.rotation  # the clearance frame's (K, 3, 3)
+        centre = translations[:, i]
+        carried = -force[:, i]
+        turning = -(moment[:, i] - np.cross(centre, force[:, i]))  # about the joint centre
+        local = np.empty((len(force), 6))
+        local[:, :3] = (np.swapaxes(axes, 1, 2) @ carried[:, :, None])[..., 0]
+        local[:, 3:] = (np.swapaxes(axes, 1, 2) @ turning[:, :, None])[..., 0]
+        out[joint.name] = local
+    return out
+
+
+def whole_tree_reaction(answers: StackedAnswers, joint: str, frame: str) -> Array | None:
+    """The whole reaction (N, 6) of ``joint`` in every stacked case of a tree without couplings,
+    from the statics of its subtree (:func:`tree_reactions`; the same wrench as the contact,
+    rigid, drive and held parts summed, without solving for them): ``frame="joint"`` its
+    clearance frame about the joint centre, ``"world"`` world axes about the world origin. None
+    for a mechanism with loops or couplings."""
+    mechanism = answers.mechanism
+    if mechanism.loop_joints or mechanism.couplings:
+        return None
+    cached: dict[str, Array] | None = answers.__dict__.get("_tree_reactions")
+    if cached is None:
+        cached = answers.__dict__["_tree_reactions"] = tree_reactions(
+            mechanism, answers.load_column, answers.gravity, answers.rotations,
+            answers.translations,
+        )  # fmt: skip
+    local = cached[joint]
+    if frame == "joint":
+        return local
+    tree_joint = next(j for j in mechanism.tree_joints if j.name == joint)
+    axes = answers.rotations[:, tree_joint.joint_id] @ tree_joint.rotation
+    force = (axes @ local[:, :3, None])[..., 0]
+    moment = (axes @ local[:, 3:, None])[..., 0]
+    centre = answers.translations[:, tree_joint.joint_id]
+    world: Array = np.concatenate([force, moment + np.cross(centre, force)], axis=1)
+    return world
+
+
 def stacked_reactions(answers: StackedAnswers) -> StackedReactions:
     """The :class:`StackedReactions` of every stacked case of ``answers`` (module docstring)."""
     cached: StackedReactions | None = answers.__dict__.get("_reactions")
@@ -207,4 +269,10 @@ def _se3(answers: StackedAnswers) -> Any:
     return answers.prepared.configuration.oMi
 
 
-__all__ = ["PARTS", "StackedReactions", "stacked_reactions"]
+__all__ = [
+    "PARTS",
+    "StackedReactions",
+    "stacked_reactions",
+    "tree_reactions",
+    "whole_tree_reaction",
+]

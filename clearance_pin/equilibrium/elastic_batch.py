@@ -30,8 +30,8 @@ from ..numerics import Array
 from .batch import EquilibriumBatch
 from .batch_answers import torsor_twists
 from .batch_kinematics import body_placements
+from .batch_reactions import tree_reactions
 from .elastic_tree import play_twin, spring_deflections, superposed
-from .load_table import body_wrenches, load_table
 from .options import SolveOptions
 from .prepared import prepared_geometry
 
@@ -60,39 +60,6 @@ def solve_superposed(
     return ElasticTreeBatch(mechanism, play, cases, options)
 
 
-def subtree_reactions(
-    mechanism: Mechanism, cases: Cases, options: SolveOptions, rotations: Array, translations: Array
-) -> dict[str, Array]:
-    r"""Per tree joint of a tree, its reaction in every case (the parent part's wrench on the
-    child), (N, 6) [N, N m], its clearance frame, moment about the joint centre, from the statics
-    of the subtree it carries, :math:`R_j = -\sum_{b \in \mathrm{subtree}(j)} L_b` (the contact
-    forces inside the subtree are internal): the loads of every case as rows
-    (:func:`.load_table.load_table`), summed per body about the world origin
-    (:func:`.load_table.body_wrenches`), then from the leaves to the root. Body placements (K,
-    bodies, 3, 3), (K, bodies, 3) [m], K = N (a trajectory) or 1."""
-    model = mechanism.model
-    table = load_table(mechanism, cases.load_column(), options.gravity)
-    wrenches, about = body_wrenches(
-        table, rotations, translations, model.njoints, per_case=len(rotations) > 1
-    )
-    force, moment = wrenches[..., :3].copy(), about.copy()  # (N, bodies, 3), world origin
-    for i in range(model.njoints - 1, 0, -1):  # a child before its parent
-        force[:, model.parents[i]] += force[:, i]
-        moment[:, model.parents[i]] += moment[:, i]
-    out = {}
-    for joint in mechanism.tree_joints:
-        i = joint.joint_id
-        axes = rotations[:, i] @ joint.rotation  # the clearance frame's (K, 3, 3)
-        centre = translations[:, i]
-        carried = -force[:, i]
-        turning = -(moment[:, i] - np.cross(centre, force[:, i]))  # about the joint centre
-        local = np.empty((len(force), 6))
-        local[:, :3] = (np.swapaxes(axes, 1, 2) @ carried[:, :, None])[..., 0]
-        local[:, 3:] = (np.swapaxes(axes, 1, 2) @ turning[:, :, None])[..., 0]
-        out[joint.name] = local
-    return out
-
-
 class ElasticTreeBatch(EquilibriumBatch):
     """The batch of a tree with stiffness: the rigid twin's batch ``play`` and the springs'
     deflections (module docstring); the readers of :class:`.batch.EquilibriumBatch`."""
@@ -104,7 +71,9 @@ class ElasticTreeBatch(EquilibriumBatch):
         self._cases, self._options = cases, options
         started = time.perf_counter()
         stiff = [joint for joint in mechanism.tree_joints if elastic(joint.clearance)[1].size]
-        reactions = subtree_reactions(mechanism, cases, options, *self._placements())
+        reactions = tree_reactions(
+            mechanism, cases.load_column(), options.gravity, *self._placements()
+        )
         self._springs = {
             joint.name: spring_deflections(joint, reactions[joint.name]) for joint in stiff
         }
