@@ -16,6 +16,7 @@ from test_backlash import one_journal
 
 import clearance_pin as cp
 from clearance_pin import ModelError, PointForce, Torque
+from clearance_pin.equilibrium.batch_reactions import PARTS
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 BACKLASH = 0.002  # [rad]
@@ -479,19 +480,67 @@ def test_the_coal_check_reads_the_contacts_on_the_play_side_of_the_springs():
             assert abs(point.distance) < 1e-9
 
 
-def test_a_tree_s_reactions_from_its_subtrees_equal_the_batch_s_least_squares():
-    """The accuracy map reads a tree's springs from the statics of each joint's subtree (the
-    loads beyond it, weights from Pinocchio's subtree centres of mass): the same reactions as
-    the batch's per-body least squares, to 1e-9 of the largest, with gravity and a payload."""
-    from clearance_pin.accuracy.accuracy_map import pose_terms, subtree_reactions
+def _subtree_statics(arm, poses, loads, gravity) -> dict:
+    """Reference written here with Pinocchio alone: each tree joint's reaction (the parent's
+    wrench on the child, clearance frame, about the joint centre) at every pose, minus the loads
+    on the subtree it carries, its weight from Pinocchio's subtree mass and centre of mass
+    (pin.centerOfMass), the point forces and torques at their links (pin.framesForwardKinematics)."""
+    model = arm.model
+    data = model.createData()
+    out = {joint.name: [] for joint in arm.tree_joints}
+    for pose in poses:
+        pin.framesForwardKinematics(model, data, pose)
+        pin.centerOfMass(model, data, pose, True)
+        for joint in arm.tree_joints:
+            k = joint.joint_id
+            subtree = {k} | {
+                j
+                for j in range(k + 1, model.njoints)
+                if model.parents[j] >= k and _under(model, j, k)
+            }
+            force, moment = np.zeros(3), np.zeros(3)  # the loads on the subtree, world origin
+            weight = data.mass[k] * gravity
+            force += weight
+            moment += np.cross(data.oMi[k].act(data.com[k]), weight)
+            for load in loads:
+                frame = arm.link_frames[load.link]
+                if model.frames[frame].parentJoint not in subtree:
+                    continue
+                if isinstance(load, PointForce):
+                    point = data.oMf[frame].act(np.asarray(load.point))
+                    force += load.force
+                    moment += np.cross(point, load.force)
+                else:
+                    moment += load.torque
+            centre = data.oMi[k] * pin.SE3(joint.rotation, np.zeros(3))
+            axes, origin = centre.rotation, centre.translation
+            out[joint.name].append(
+                np.hstack([axes.T @ -force, axes.T @ -(moment - np.cross(origin, force))])
+            )
+    return {name: np.array(rows) for name, rows in out.items()}
 
+
+def _under(model, j: int, k: int) -> bool:
+    """Body j lies in the subtree rooted at body k."""
+    while j > k:
+        j = model.parents[j]
+    return j == k
+
+
+def test_a_tree_s_reactions_from_its_subtrees_equal_the_batch_s_least_squares():
+    """A tree's batch reactions (read from the statics of each joint's subtree, load rows summed
+    leaf to root) and the sum of their parts (solved from the contact forces) both equal the
+    statics written here with Pinocchio's subtree centres of mass (independent), to 1e-9 of the
+    largest, with gravity and a payload."""
     arm = cp.load(str(MODELS / "arm_6r.urdf"))
     poses = arm.q_nominal + np.random.default_rng(1).uniform(-0.5, 0.5, (20, arm.model.nq))
     link, point = arm.link_point("tool")
     loads = [PointForce(link, [3.0, -2.0, -40.0], point), Torque(link, [0.5, 0.0, 0.2])]
     batch = arm.solve_many([loads] * len(poses), configurations=poses, gravity=True)
-    reactions = subtree_reactions(arm, pose_terms(arm, poses), loads, True)
+    reference = _subtree_statics(arm, poses, loads, np.array([0.0, 0.0, -9.81]))
     for joint in arm.tree_joints:
-        expected = batch.reactions(joint.name)
-        scale = float(np.abs(expected).max())
-        assert reactions[joint.name] == pytest.approx(expected, abs=1e-9 * scale)
+        whole = batch.reactions(joint.name)
+        parts = sum(batch.reactions(joint.name, "joint", part) for part in PARTS)
+        scale = float(np.abs(reference[joint.name]).max())
+        assert whole == pytest.approx(reference[joint.name], abs=1e-9 * scale)
+        assert parts == pytest.approx(reference[joint.name], abs=1e-9 * scale)

@@ -13,16 +13,12 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pinocchio as pin
 
-from ..equilibrium.elastic_tree import play_twin, spring_deflections
 from ..errors import ArgumentError, NotFoundError
 from ..kinematics.joint_shares import joint_levers, moved_by
-from ..model.couplings import coupled
 from ..model.frames import frame_id as find_frame
 from ..model.joints import TreeJoint
 from ..model.loads import Gravity, PointForce, Torque
-from ..model.stiffness import stiff_joints
 
 if TYPE_CHECKING:
     from ..mechanism import Mechanism
@@ -158,35 +154,25 @@ def accuracy_map(
     }
     ok = np.zeros((count, len(cases)), dtype=bool)
     levers = joint_levers(model, mechanism.tree_joints, frame, poses)
-    # a tree's springs add to its play (:mod:`..equilibrium.elastic_tree`): the rigid twin's
-    # batch (closed forms over the poses) and each spring's deflection from its reaction, the
-    # statics of the subtree it carries (one kinematics per pose for every payload)
-    superposed = bool(stiff_joints(mechanism.joints)) and not mechanism.loop_joints
-    solver = play_twin(mechanism) if superposed else mechanism
-    statics = pose_terms(mechanism, poses) if superposed else None
+    # a tree's springs add to its play: solve_many gives the rigid twin's batch and each
+    # spring's deflection from its reaction, the statics of its subtree (.equilibrium.elastic_batch)
     for k, loads in enumerate(cases):
         if not mechanism.resolve_loads(loads, False if gravity is False else gravity):
             ok[:, k] = True  # no load at all: every pose stays at its nominal place
             continue
-        batch = solver.solve_many(
+        batch = mechanism.solve_many(
             [loads] * count, configurations=poses, gravity=gravity, errors="return"
         )
         ok[:, k] = batch.ok
         first = batch[0]
         if not ok[:, k].any() and isinstance(first, Exception):
             raise first  # no pose solves: a fault of the model or the payload, said once
-        springs = {} if statics is None else subtree_reactions(mechanism, statics, loads, gravity)
         for joint in joints:
             if joint.name not in levers:
                 continue  # not between the ground and the output: it does not move it
             axes, arms = levers[joint.name]
-            torsor = batch.torsors(joint.name)  # (Q, 6) [m, rad], clearance frame
-            deflection = None
-            if joint.clearance.stiffness and superposed:
-                deflection = spring_deflections(joint, springs[joint.name])
-                torsor = torsor + deflection
-            elif joint.clearance.stiffness:
-                deflection = batch.deflections(joint.name)
+            torsor = batch.torsors(joint.name)  # (Q, 6) [m, rad], clearance frame, with springs
+            deflection = batch.deflections(joint.name) if joint.clearance.stiffness else None
             for source, part in _by_source(joint, torsor, deflection).items():
                 moved, turned = moved_by(axes, arms, part)
                 shares[source][joint.name][:, k] = moved
@@ -209,120 +195,6 @@ def accuracy_map(
         ok,
         time.perf_counter() - started,
     )
-
-
-@dataclass(frozen=True)
-class PoseTerms:
-    """What a tree's subtree statics need at every pose, once for every payload.
-
-    Attributes:
-        joints: the tree joints, in order.
-        carried: per joint, the Pinocchio joints (bodies) of the subtree it carries.
-        masses: per pose and joint, the subtree's mass [kg], (Q, J).
-        centres: per pose and joint, the subtree's centre of mass in the world [m], (Q, J, 3).
-        frames: per pose and joint, its clearance frame: rotation (Q, J, 3, 3), origin (Q, J, 3).
-        links: link name -> its frame's rotation (Q, 3, 3) and origin (Q, 3) in the world.
-    """
-
-    joints: tuple[TreeJoint, ...]
-    carried: tuple[np.ndarray, ...]
-    masses: np.ndarray
-    centres: np.ndarray
-    frames: tuple[np.ndarray, np.ndarray]
-    links: dict[str, tuple[np.ndarray, np.ndarray]]
-
-
-def pose_terms(mechanism: Mechanism, poses: np.ndarray) -> PoseTerms:
-    """The :class:`PoseTerms` of a tree at ``poses`` (Q, nq): one forward kinematics and one
-    ``pin.centerOfMass`` (subtree masses and centres) per pose."""
-    model = mechanism.model
-    data = model.createData()
-    joints = mechanism.tree_joints
-    count = len(poses)
-    masses = np.zeros((count, len(joints)))
-    centres = np.zeros((count, len(joints), 3))
-    rotations = np.zeros((count, len(joints), 3, 3))
-    origins = np.zeros((count, len(joints), 3))
-    links = {
-        name: (np.zeros((count, 3, 3)), np.zeros((count, 3))) for name in mechanism.link_frames
-    }
-    for i, pose in enumerate(poses):
-        q = coupled(model, mechanism.couplings, pose)  # followers from their leaders
-        pin.framesForwardKinematics(model, data, q)
-        pin.centerOfMass(model, data, q, True)  # subtree masses, centres in their joint's frame
-        for n, joint in enumerate(joints):
-            k = joint.joint_id
-            masses[i, n] = data.mass[k]
-            centres[i, n] = data.oMi[k].act(data.com[k])
-            centre = data.oMi[k] * pin.SE3(joint.rotation, np.zeros(3))
-            rotations[i, n], origins[i, n] = centre.rotation, centre.translation
-        for name, frame in mechanism.link_frames.items():
-            links[name][0][i], links[name][1][i] = (
-                data.oMf[frame].rotation,
-                data.oMf[frame].translation,
-            )
-    carried = tuple(np.array(_subtree(model, j.joint_id)) for j in joints)
-    return PoseTerms(joints, carried, masses, centres, (rotations, origins), links)
-
-
-def subtree_reactions(
-    mechanism: Mechanism, terms: PoseTerms, loads: Sequence[Any], gravity: Any
-) -> dict[str, np.ndarray]:
-    r"""Per tree joint of a tree, its reaction (the parent part's wrench on the child) at every
-    pose of ``terms``, (Q, 6) [N, N m], its clearance frame, moment about the joint centre, from
-    the statics of the subtree it carries: :math:`W_j = -\sum_{b \in \mathrm{subtree}(j)} L_b`
-    (the contact forces inside the subtree are internal), the weights from Pinocchio's subtree
-    masses and centres of mass, the point forces and torques at their links. The reactions of
-    :meth:`~clearance_pin.equilibrium.batch.EquilibriumBatch.reactions` without their least
-    squares: what a tree's springs carry (tests compare the two)."""
-    model = mechanism.model
-    resolved = mechanism.resolve_loads(loads, False if gravity is False else gravity)
-    acceleration = sum(
-        (np.asarray(g.acceleration, dtype=float) for g in resolved if isinstance(g, Gravity)),
-        np.zeros(3),
-    )
-    count = terms.masses.shape[0]
-    applied = []  # (body, wrench at the world origin (Q, 6))
-    for load in resolved:
-        if isinstance(load, Gravity):
-            continue
-        body = model.frames[mechanism.link_frames[load.link]].parentJoint
-        wrench = np.zeros((count, 6))
-        if isinstance(load, PointForce):
-            rotation, origin = terms.links[load.link]
-            point = rotation @ np.asarray(load.point, dtype=float) + origin
-            force = np.broadcast_to(np.asarray(load.force, dtype=float), (count, 3))
-            wrench[:, :3], wrench[:, 3:] = force, np.cross(point, force)
-        else:
-            wrench[:, 3:] = load.torque
-        applied.append((body, wrench))
-    rotations, origins = terms.frames
-    out = {}
-    for n, joint in enumerate(terms.joints):
-        total = np.zeros((count, 6))
-        for body, wrench in applied:
-            if body in terms.carried[n]:
-                total += wrench
-        weight = terms.masses[:, n, None] * acceleration  # (Q, 3)
-        total[:, :3] += weight
-        total[:, 3:] += np.cross(terms.centres[:, n], weight)
-        # the parent's wrench on the child, in the joint's clearance frame about its centre
-        force, moment = -total[:, :3], -total[:, 3:]
-        local_force = np.einsum("qji,qj->qi", rotations[:, n], force)
-        local_moment = np.einsum(
-            "qji,qj->qi", rotations[:, n], moment - np.cross(origins[:, n], force)
-        )
-        out[joint.name] = np.hstack([local_force, local_moment])
-    return out
-
-
-def _subtree(model: pin.Model, root: int) -> list[int]:
-    """The Pinocchio joints (bodies) of the subtree rooted at ``root``, itself included."""
-    found = [root]
-    for j in range(root + 1, model.njoints):  # parents come before their children
-        if model.parents[j] in found:
-            found.append(j)
-    return found
 
 
 def _configurations(configurations: Any, nq: int) -> np.ndarray:
