@@ -91,8 +91,8 @@ def spring_deflections(joint: Any, reactions: np.ndarray) -> np.ndarray:
     r"""The deflection (N, 6) [m, rad] of ``joint``'s spring under its reactions (N, 6) [N, N m]
     (the parent's wrench on the child, clearance frame): :math:`e = -K^+ W`, K's inverse on the
     directions that deflect. In a tree this is the :math:`e_i = -g_i / k_i` of the module
-    docstring, from the joint's reactions (the accuracy map reads them from the statics of each
-    joint's subtree, :func:`clearance_pin.accuracy.accuracy_map.subtree_reactions`)."""
+    docstring, from the joint's reactions (a batch reads them from the statics of each joint's
+    subtree, :func:`.batch_reactions.tree_reactions`)."""
     directions, stiffnesses = elastic(joint.clearance)
     compliance = directions @ (directions.T / stiffnesses[:, None])
     deflections: np.ndarray = -reactions @ compliance.T
