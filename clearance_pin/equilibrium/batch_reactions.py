@@ -134,14 +134,22 @@ def whole_tree_reaction(answers: StackedAnswers, joint: str, frame: str) -> Arra
             mechanism, answers.load_column, answers.gravity, answers.rotations,
             answers.translations,
         )  # fmt: skip
-    local = cached[joint]
+    return in_frame(mechanism, joint, cached[joint], frame, answers.rotations, answers.translations)
+
+
+def in_frame(
+    mechanism: Any, joint: str, local: Array, frame: str, rotations: Array, translations: Array
+) -> Array:
+    """A tree joint's reactions (N, 6) given in its clearance frame about its centre, in
+    ``frame``: ``"joint"`` as given, ``"world"`` world axes about the world origin; body
+    placements (K, bodies, 3, 3), (K, bodies, 3) [m], K = N or 1."""
     if frame == "joint":
         return local
     tree_joint = next(j for j in mechanism.tree_joints if j.name == joint)
-    axes = answers.rotations[:, tree_joint.joint_id] @ tree_joint.rotation
+    axes = rotations[:, tree_joint.joint_id] @ tree_joint.rotation
     force = (axes @ local[:, :3, None])[..., 0]
     moment = (axes @ local[:, 3:, None])[..., 0]
-    centre = answers.translations[:, tree_joint.joint_id]
+    centre = translations[:, tree_joint.joint_id]
     world: Array = np.concatenate([force, moment + np.cross(centre, force)], axis=1)
     return world
 

@@ -30,7 +30,7 @@ from ..numerics import Array
 from .batch import EquilibriumBatch
 from .batch_answers import torsor_twists
 from .batch_kinematics import body_placements
-from .batch_reactions import tree_reactions
+from .batch_reactions import in_frame, tree_reactions
 from .elastic_tree import play_twin, spring_deflections, superposed
 from .options import SolveOptions
 from .prepared import prepared_geometry
@@ -53,11 +53,70 @@ def solve_superposed(
     batch (in ``executor``'s tasks when one is given) plus the springs (module docstring)."""
     from .batch import solve_many
 
-    play = solve_many(
-        play_twin(mechanism), cases.loads, cases.configurations, options,
-        executor=executor, chunks=chunks, errors=errors, progress=progress,
-    )  # fmt: skip
+    twin = play_twin(mechanism)
+    play: EquilibriumBatch
+    if not prepared_geometry(twin).geometry.contacts:  # no play anywhere: the springs alone
+        play = RigidPlay(twin, cases, options)
+    else:
+        play = solve_many(
+            twin, cases.loads, cases.configurations, options,
+            executor=executor, chunks=chunks, errors=errors, progress=progress,
+        )  # fmt: skip
     return ElasticTreeBatch(mechanism, play, cases, options)
+
+
+class RigidPlay(EquilibriumBatch):
+    """The rigid twin's batch when no joint has play: nothing moves in any case (torsors 0, every
+    case verified, energy 0, no contact), each joint's whole reaction the statics of its subtree
+    (:func:`.batch_reactions.tree_reactions`); a case's answer, or a reaction's parts, by a
+    single solve of the twin when read."""
+
+    def __init__(self, twin: Mechanism, cases: Cases, options: SolveOptions) -> None:
+        from .formulation import solve_with_options
+
+        def solve(index: int) -> Any:
+            loads, q = cases[index]
+            return solve_with_options(twin, loads, q, options)
+
+        super().__init__([None] * len(cases), None, solve)
+        self.twin, self._cases, self._options = twin, cases, options
+
+    def torsors(self, joint: str) -> Array:
+        self._check_joint(joint)
+        return np.zeros((len(self), 6))
+
+    @property
+    def ok(self) -> Array:
+        return np.ones(len(self), dtype=bool)
+
+    @property
+    def energy(self) -> Array:
+        return np.zeros(len(self))
+
+    def reactions(self, joint: str, frame: str = "joint", part: str | None = None) -> Array:
+        """The whole reaction from the subtree's statics; its parts by single solves."""
+        self._check_joint(joint)
+        if part is not None:
+            return super().reactions(joint, frame, part)
+        configurations = self._cases.configurations
+        placed = _placements(self.twin, configurations)
+        whole = self.__dict__.get("_whole")
+        if whole is None:
+            whole = self.__dict__["_whole"] = tree_reactions(
+                self.twin, self._cases.load_column(), self._options.gravity, *placed
+            )
+        return in_frame(self.twin, joint, whole[joint], frame, *placed)
+
+    def contact_forces(self, joint: str) -> Array:
+        self._check_joint(joint)
+        return np.zeros((len(self), 0, 3))
+
+    def contact_points(self, joint: str) -> tuple[str, ...]:
+        self._check_joint(joint)
+        return ()
+
+    def _mechanism(self) -> Any:
+        return self.twin
 
 
 class ElasticTreeBatch(EquilibriumBatch):
@@ -128,18 +187,7 @@ class ElasticTreeBatch(EquilibriumBatch):
         return translation, twists[:, body, 3:].copy()
 
     def _placements(self) -> tuple[Array, Array]:
-        """Body placements (K, bodies, 3, 3), (K, bodies, 3) [m]: K = N along a trajectory, 1 at
-        the nominal configuration."""
-        configurations: Sequence[Any] | None = self._cases.configurations
-        if configurations is None:
-            oMi = prepared_geometry(self.mechanism).configuration.oMi
-            rotations = np.array([m.rotation for m in oMi])[None]
-            translations = np.array([m.translation for m in oMi])[None]
-            return rotations, translations
-        nominal = self.mechanism.q_nominal
-        return body_placements(
-            self.mechanism, [nominal if q is None else q for q in configurations]
-        )
+        return _placements(self.mechanism, self._cases.configurations)
 
     def reactions(self, joint: str, frame: str = "joint", part: str | None = None) -> Array:
         """The twin's (:meth:`.batch.EquilibriumBatch.reactions`): the same statics."""
@@ -173,4 +221,16 @@ class ElasticTreeBatch(EquilibriumBatch):
         return self.mechanism
 
 
-__all__ = ["ElasticTreeBatch", "solve_superposed"]
+def _placements(mechanism: Mechanism, configurations: Sequence[Any] | None) -> tuple[Array, Array]:
+    """Body placements (K, bodies, 3, 3), (K, bodies, 3) [m]: K = N along a trajectory, 1 at
+    the nominal configuration."""
+    if configurations is None:
+        oMi = prepared_geometry(mechanism).configuration.oMi
+        rotations = np.array([m.rotation for m in oMi])[None]
+        translations = np.array([m.translation for m in oMi])[None]
+        return rotations, translations
+    nominal = mechanism.q_nominal
+    return body_placements(mechanism, [nominal if q is None else q for q in configurations])
+
+
+__all__ = ["ElasticTreeBatch", "RigidPlay", "solve_superposed"]
