@@ -140,3 +140,32 @@ def test_a_trees_whole_reactions_are_its_parts_summed(play):
             scale = np.abs(whole).max()
             assert scale > 1.0
             np.testing.assert_allclose(whole, parts, rtol=0.0, atol=1e-9 * scale)
+
+
+def test_a_failed_case_reads_as_nan():
+    """With errors="return", a case whose load the rigid twin cannot balance (a force along a
+    motion nothing blocks: the arm's base turns freely without its drive) is its error in the
+    batch, and every whole-batch reader gives NaN in its row, the others their answers."""
+    text = (ROOT / "models" / "arm_6r.urdf").read_text()
+    text = text.replace(
+        'driven="true" q="0.0"/>\n    <joint name="shoulder_lift"',
+        'q="0.0"/>\n    <joint name="shoulder_lift"',
+        1,
+    )
+    lines = iter(DRIVE[1:])
+    text = re.sub(
+        r'driven="true" q="', lambda m: f'driven="true" drive_stiffness="{next(lines)!r}" q="', text
+    )
+    arm = clearance_pin.loads(text, source="arm_6r, its base free")
+    tool = next(load for load in arm.loads if isinstance(load, PointForce))
+    values = np.array([[0.0, 0.0, -50.0], [0.0, 30.0, -50.0], [0.0, 0.0, -20.0]])
+    batch = arm.resolver([tool], gravity=False).solve_many(values, errors="return")
+    failed = [isinstance(item, Exception) for item in batch]
+    assert any(failed) and not all(failed)
+    rows = np.array(failed)
+    for reader in (
+        batch.torsors("elbow"),
+        batch.deflections("elbow"),
+        batch.frame_displacements("tool")[0],
+    ):
+        assert np.isnan(reader[rows]).all() and np.isfinite(reader[~rows]).all()

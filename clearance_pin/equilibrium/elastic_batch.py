@@ -160,10 +160,8 @@ class ElasticTreeBatch(EquilibriumBatch):
         """The spring deflection of ``joint`` in every case, (N, 6) [m, rad] (zero for a rigid
         joint; NaN for failed cases)."""
         self._check_joint(joint)
-        spring = self._springs.get(joint)
-        if spring is None:
-            return np.where(np.isfinite(self.play.torsors(joint)), 0.0, np.nan)
-        return spring
+        solved = np.isfinite(self.play.torsors(joint))
+        return np.where(solved, self._springs.get(joint, 0.0), np.nan)
 
     def frame_displacements(self, frame: str) -> tuple[Array, Array]:
         """World displacement of a Pinocchio frame in every case (translations (N, 3) [m],
