@@ -169,3 +169,17 @@ def test_a_failed_case_reads_as_nan():
         batch.frame_displacements("tool")[0],
     ):
         assert np.isnan(reader[rows]).all() and np.isfinite(reader[~rows]).all()
+
+
+@pytest.mark.parametrize("play", [True, False])
+def test_methods_and_statuses_read_as_the_items_say(play):
+    """The batch's methods and statuses, read without assembling the items, are the items' own
+    (springs alone where nothing moves in the play, by superposition elsewhere)."""
+    arm = _arm(play)
+    tool = next(load for load in arm.loads if isinstance(load, PointForce))
+    values = np.array([[0.0, 0.0, -50.0], [0.0, 0.0, 0.0], [5.0, 0.0, -20.0]])
+    batch = arm.resolver([tool], gravity=False).solve_many(values)
+    methods, statuses = batch.methods, batch.statuses
+    for i in range(len(batch)):
+        assert methods[i] == batch[i].method
+        assert statuses[i] == batch[i].solver_status

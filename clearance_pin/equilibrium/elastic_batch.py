@@ -31,7 +31,8 @@ from .batch import EquilibriumBatch
 from .batch_answers import torsor_twists
 from .batch_kinematics import body_placements
 from .batch_reactions import in_frame, tree_reactions
-from .elastic_tree import play_twin, spring_deflections, superposed
+from .elastic_tree import play_twin, spring_deflections, superposed, superposed_status
+from .method import NO_LOAD_STATUS, Method
 from .options import SolveOptions
 from .prepared import prepared_geometry
 
@@ -107,6 +108,14 @@ class RigidPlay(EquilibriumBatch):
             )
         return in_frame(self.twin, joint, whole[joint], frame, *placed)
 
+    @property
+    def methods(self) -> list[Method | str]:
+        return [Method.NO_LOAD] * len(self)
+
+    @property
+    def statuses(self) -> list[str]:
+        return [NO_LOAD_STATUS] * len(self)
+
     def contact_forces(self, joint: str) -> Array:
         self._check_joint(joint)
         return np.zeros((len(self), 0, 3))
@@ -151,6 +160,32 @@ class ElasticTreeBatch(EquilibriumBatch):
             return superposed(mechanism, prepared, resolved, answer, self._started)
 
         return build
+
+    @property
+    def methods(self) -> list[Method | str]:
+        """The play's engine per case, closed forms where the springs alone move (as the items
+        say: :func:`.elastic_tree.superposed`)."""
+        alone = self._springs_alone()
+        return [Method.CLOSED_FORM if a else m for m, a in zip(self.play.methods, alone)]
+
+    @property
+    def statuses(self) -> list[str]:
+        """Per case: the play's status and the springs' superposition, as the items say."""
+        alone = self._springs_alone()
+        return [
+            superposed_status(status, moving) if isinstance(method, Method) else status
+            for method, status, moving in zip(self.play.methods, self.play.statuses, alone)
+        ]  # an error's class name (a str, not a Method) as it is
+
+    def _springs_alone(self) -> list[bool]:
+        """Per case: nothing moves in the play but a spring deflects (a closed form alone)."""
+        deflecting = np.zeros(len(self), dtype=bool)
+        for spring in self._springs.values():
+            deflecting |= np.any(spring != 0.0, axis=1)
+        return [
+            method is Method.NO_LOAD and bool(moving)
+            for method, moving in zip(self.play.methods, deflecting)
+        ]
 
     def torsors(self, joint: str) -> Array:
         """Torsor of ``joint`` (play and spring) in every case, (N, 6) [m, rad]."""

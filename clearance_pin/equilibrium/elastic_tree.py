@@ -65,13 +65,12 @@ def superposed(
     gaps, _ = prepared.contact_state(x, np.zeros(len(contacts)), np.ones(len(contacts)), 0.0)
     residuals = {name: play.residuals[name] for name in RESIDUAL_NAMES if name in play.residuals}
     status, method, solver_status = play.status, play.method, play.solver_status
-    if status == "indeterminate" and np.any(x[elastic]):
+    alone = status == "indeterminate" and bool(np.any(x[elastic]))
+    if alone:
         # nothing moves in the play (none, or no load on it) but the springs deflect: answered
         # by the springs' closed form alone
         status, method = "optimal", Method.CLOSED_FORM
-        solver_status = f"springs alone ({solver_status} in the play)"
-    else:
-        solver_status = f"{solver_status}; springs by superposition (a tree)"
+    solver_status = superposed_status(solver_status, alone)
     answer = answer_of_x(
         prepared,
         problem,
@@ -87,6 +86,16 @@ def superposed(
     return replace(answer, free_motions=play.free_motions)  # the play's, flat directions named
 
 
+def superposed_status(play: str, alone: bool) -> str:
+    """The solver status of a superposed answer from its play's: the springs alone (nothing
+    moves in the play) or by superposition."""
+    return (
+        f"springs alone ({play} in the play)"
+        if alone
+        else f"{play}; springs by superposition (a tree)"
+    )
+
+
 def spring_deflections(joint: Any, reactions: np.ndarray) -> np.ndarray:
     r"""The deflection (N, 6) [m, rad] of ``joint``'s spring under its reactions (N, 6) [N, N m]
     (the parent's wrench on the child, clearance frame): :math:`e = -K^+ W`, K's inverse on the
@@ -99,4 +108,4 @@ def spring_deflections(joint: Any, reactions: np.ndarray) -> np.ndarray:
     return deflections
 
 
-__all__ = ["play_twin", "spring_deflections", "superposed"]
+__all__ = ["play_twin", "spring_deflections", "superposed", "superposed_status"]

@@ -9,6 +9,9 @@ from __future__ import annotations
 
 from enum import StrEnum
 
+NO_LOAD_STATUS = "no load works on any admissible motion"
+"""The solver status of a :attr:`Method.NO_LOAD` answer."""
+
 
 class Method(StrEnum):
     """The engine that found the contact set of an answer (its value is the name reports print).
@@ -42,4 +45,4 @@ def backend_method(name: str) -> Method:
     return Method.CLARABEL if name == "clarabel" else Method.IPOPT
 
 
-__all__ = ["Method", "backend_method"]
+__all__ = ["NO_LOAD_STATUS", "Method", "backend_method"]

@@ -40,7 +40,7 @@ from .fast_path import (
     solve_compiled,
 )
 from .linear_answer import assemble_linear
-from .method import Method
+from .method import NO_LOAD_STATUS, Method
 from .plan import plan_linear
 from .prepared import PreparedGeometry, prepared_geometry
 from .reduction import reduce_geometry
@@ -116,7 +116,7 @@ def solve_linear(
             np.ones(count),
             "indeterminate",
             Method.NO_LOAD,
-            "no load works on any admissible motion",
+            NO_LOAD_STATUS,
             0,
             False,
             0.0,
