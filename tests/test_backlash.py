@@ -204,3 +204,29 @@ def test_the_report_and_the_coal_check_read_the_stop():
     assert all(reading.point != "backlash" for reading in report.joints["drive"].points)
     stop = next(c for c in answer.to_dict()["contacts"] if c["point"] == "backlash")
     assert stop["moment_N_m"] == pytest.approx([-3.0, 0.0, 0.0], abs=1e-5)  # T cos(angle)
+
+
+def test_a_batch_reads_the_drive_torques_its_stops_hold():
+    """solve_many's drive_torques lists every driven joint with backlash and gives what its
+    stop holds, as each answer's drive_torque (the Panda with backlash on every drive, random
+    tool forces; it listed none of them before)."""
+    corpus = pytest.importorskip("test_corpus_robots")
+    text = re.sub(
+        r'driven="true"', f'driven="true" backlash="{BACKLASH}"', corpus.model_text("panda")
+    )
+    mech = cp.loads(text)
+    names = corpus.ROBOTS["panda"][1]
+    base = corpus.tool_loads("panda")
+    rng = np.random.default_rng(3)
+    cases = [
+        [cp.PointForce(load.link, load.force * rng.uniform(0.5, 1.5), load.point) for load in base]
+        for _ in range(6)
+    ]
+    batch = mech.solve_many(cases, gravity=False)
+    torques = batch.drive_torques()
+    assert set(names) <= set(torques)
+    for i in range(len(cases)):
+        for name in names:
+            assert torques[name][i] == pytest.approx(
+                batch[i].drive_torque(name), rel=1e-9, abs=1e-9
+            )

@@ -183,3 +183,38 @@ def test_methods_and_statuses_read_as_the_items_say(play):
     for i in range(len(batch)):
         assert methods[i] == batch[i].method
         assert statuses[i] == batch[i].solver_status
+
+
+def test_a_vendor_arm_with_locked_mimic_fingers_takes_the_arrays(tmp_path):
+    """The Panda as shipped (its second finger mimics the first), the fingers held by [locks],
+    a drive stiffness on every arm joint: a driven leader's coupling holds its follower as a
+    drive does, so the batch is the springs' on arrays (it went one case at a time), and its
+    tool displacements and reactions (a finger's included) are the single solves'."""
+    robots = pytest.importorskip("test_corpus_robots")
+    path = robots.vendor_file("panda_description/urdf/panda.urdf")
+    if path is None:
+        pytest.skip("example-robot-data is not installed")
+    clearances = tmp_path / "panda.toml"
+    clearances.write_text(
+        "[defaults.revolute]\ndriven = true\ndrive_stiffness = 2e4\n"
+        "[locks.panda_finger_joint1]\nq = 0.02\n[locks.panda_finger_joint2]\nq = 0.02\n"
+    )
+    arm, single = (clearance_pin.load(path, clearances=clearances) for _ in range(2))
+    assert arm.couplings  # the mimic
+    load = PointForce("panda_hand", [0.0, 0.0, -10.0], [0.0, 0.0, 0.1])
+    values = np.random.default_rng(6).normal(0.0, 20.0, (40, 1, 3))
+    batch = arm.resolver([load], gravity=False).solve_many(values)
+    assert type(batch).__name__ == "ElasticTreeBatch" and batch.ok.all()
+    shifts = batch.frame_displacements("panda_hand")[0]
+    for n in (0, 21, 39):
+        expected = single.solve([PointForce(load.link, values[n, 0], load.point)], gravity=False)
+        moved = expected.frame_displacement("panda_hand")[0]
+        np.testing.assert_allclose(shifts[n], moved, rtol=0.0, atol=1e-9 * np.abs(moved).max())
+        for joint in ("panda_joint2", "panda_finger_joint1"):
+            wrench = expected.reaction(joint).wrench
+            np.testing.assert_allclose(
+                batch.reactions(joint)[n],
+                wrench,
+                rtol=0.0,
+                atol=1e-9 * max(1.0, np.abs(wrench).max()),
+            )

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..arguments import check_errors
 from ..errors import ArgumentError, CaseIndexError, ClearancePinError, NotFoundError
-from ..model.couplings import coupled
+from ..model.couplings import coupled, passive
 from ..model.frames import frame_id as find_frame
 from ..model.stiffness import stiff_joints
 from ..numerics import Array, Mask
@@ -260,15 +260,22 @@ class EquilibriumBatch(Sequence[Item]):
         """Driven joint name -> its drive torque about the joint axis [N m] in every case (N,)
         (the drive force [N] of a driven prismatic joint): the ``drive`` part of
         :meth:`reactions` in the joint's clearance frame (x = joint axis), component 3 (0 for a
-        prismatic joint), as the bearing-load table reports it; NaN for failed cases."""
+        prismatic joint), and with backlash what its stop holds (the ``contact`` part's
+        component: the journal's contacts, on its axis, have none), as
+        :meth:`.result.Equilibrium.drive_torque` and the bearing-load table report it; NaN for
+        failed cases."""
         mechanism = self._mechanism()
         if mechanism is None:
             return {}
         out = {}
         for name, joint in mechanism.joints.items():
-            if getattr(joint, "locked_components", ()):
+            backlash = bool(joint.clearance.backlash)
+            if getattr(joint, "locked_components", ()) or backlash:
                 component = 0 if getattr(joint, "motion_component", None) == 0 else 3
-                out[name] = self.reactions(name, "joint", "drive")[:, component]
+                held = self.reactions(name, "joint", "drive")[:, component]
+                if backlash:
+                    held = held + self.reactions(name, "joint", "contact")[:, component]
+                out[name] = held
         return out
 
     def _mechanism(self) -> Any:
@@ -456,7 +463,7 @@ def solve_many(
     if (
         not exact
         and not mechanism.loop_joints
-        and not mechanism.couplings
+        and not passive(mechanism.couplings, mechanism.joints)
         and stiff_joints(mechanism.joints)
     ):
         from .elastic_batch import solve_superposed  # a tree's springs: its rigid twin's batch

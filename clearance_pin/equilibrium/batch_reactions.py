@@ -22,6 +22,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ArgumentError, NotFoundError
+from ..model.couplings import passive
 from ..numerics import Array
 from .batch_answers import StackedAnswers, contact_forces
 from .load_table import body_wrenches, load_table
@@ -95,7 +96,8 @@ def tree_reactions(
     (:func:`.load_table.body_wrenches`), then from the leaves to the root. Body placements (K,
     bodies, 3, 3), (K, bodies, 3) [m], K = N (a trajectory) or 1; the cases' loads
     ``load_column`` (None: the model's) with the solve's ``gravity`` option. A tree without
-    couplings only: a coupling carries torque between joints, a loop closes through its joint."""
+    passive couplings only: such a coupling carries torque between its joints, a loop closes
+    through its joint."""
     model = mechanism.model
     table = load_table(mechanism, load_column, gravity)
     wrenches, about = body_wrenches(
@@ -120,13 +122,14 @@ def tree_reactions(
 
 
 def whole_tree_reaction(answers: StackedAnswers, joint: str, frame: str) -> Array | None:
-    """The whole reaction (N, 6) of ``joint`` in every stacked case of a tree without couplings,
+    """The whole reaction (N, 6) of ``joint`` in every stacked case of a tree,
     from the statics of its subtree (:func:`tree_reactions`; the same wrench as the contact,
     rigid, drive and held parts summed, without solving for them): ``frame="joint"`` its
     clearance frame about the joint centre, ``"world"`` world axes about the world origin. None
-    for a mechanism with loops or couplings."""
+    for a mechanism with loops or a passive coupling (its leader not driven: the coupling then
+    carries torque between its joints; a driven leader's follower is held as a drive is)."""
     mechanism = answers.mechanism
-    if mechanism.loop_joints or mechanism.couplings:
+    if mechanism.loop_joints or passive(mechanism.couplings, mechanism.joints):
         return None
     cached: dict[str, Array] | None = answers.__dict__.get("_tree_reactions")
     if cached is None:
