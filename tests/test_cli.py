@@ -105,6 +105,8 @@ def test_check_measures_the_exact_pose_and_reports_the_linear_departure(capsys):
     assert status == 0 and document["check"]["ok"] is True
     assert document["check"]["formulation"] == "exact"
     assert document["linear_departure"]["ok"] is False  # off the boundary at second order
+    assert document["linear_departure"]["information"] is True  # not a verdict
+    assert document["check"]["information"] is False
     status, out, err = run_command(capsys, "solve", path, "--check", "--exact")
     assert status == 0 and err == ""
     assert "coal check (exact): ok" in out and "FAIL" not in out and "itself sits" not in out

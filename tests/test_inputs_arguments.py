@@ -257,3 +257,34 @@ def test_every_option_works_in_every_entry_point(pendulum, entry):
     for answer in answers:
         assert answer.formulation == expected.formulation and "tip" in answer.outputs
         np.testing.assert_allclose(answer.outputs["tip"][0], expected.outputs["tip"][0], atol=1e-12)
+
+
+def test_batch_and_check_arguments_are_named(pendulum):
+    """From an API break-test: each of these is an ArgumentError naming the argument (a plain
+    ClearancePinError, a TypeError from an inner function or an unnamed row before)."""
+    import inspect
+
+    from clearance_pin.check import CHECK_OPTIONS, check_equilibrium
+
+    force = cp.PointForce("tip", [0.0, -10.0, 0.0])
+    q = pendulum.q_nominal
+    with pytest.raises(cp.ArgumentError) as caught:
+        pendulum.solve_many([[force]] * 3, configurations=[q, q])
+    assert caught.value.argument == "configurations"
+    with pytest.raises(cp.ArgumentError, match=r"solve_many\(configurations=") as caught:
+        pendulum.solve_many([[force]], q=q)
+    assert caught.value.argument == "q"
+    resolver = pendulum.resolver([force])
+    values = np.tile(force.force, (3, 1))
+    values[1, 2] = np.nan
+    with pytest.raises(cp.ArgumentError) as caught:
+        resolver.solve_many(values)
+    assert caught.value.argument == "values[1]"
+    with pytest.raises(cp.ArgumentError, match=r"mechanism.resolver") as caught:
+        resolver.solve_many(values[[0]], exact=True)
+    assert caught.value.argument == "exact"
+    with pytest.raises(cp.ArgumentError) as caught:
+        pendulum.solve().check(foo=1)
+    assert caught.value.argument == "foo"
+    signature = inspect.signature(check_equilibrium).parameters
+    assert set(CHECK_OPTIONS) == {n for n, p in signature.items() if p.kind is p.KEYWORD_ONLY}

@@ -21,7 +21,14 @@ parts), :mod:`.report` (the answer), :mod:`.check` (the verb).
 """
 
 from .accuracy import Tolerance
-from .check import check_equilibrium
+from .check import CHECK_OPTIONS, check_equilibrium
 from .report import CheckReport, JointCheck, PointCheck
 
-__all__ = ["check_equilibrium", "CheckReport", "JointCheck", "PointCheck", "Tolerance"]
+__all__ = [
+    "CHECK_OPTIONS",
+    "check_equilibrium",
+    "CheckReport",
+    "JointCheck",
+    "PointCheck",
+    "Tolerance",
+]

@@ -28,6 +28,8 @@ _IDENTITY = np.eye(3)
 
 
 POSES = ("real", "as_solved")
+CHECK_OPTIONS = ("pose", "bores", "journal_radius", "facets", "mesh_faceting", "gjk_tolerance")
+"""The keyword options of :func:`check_equilibrium` (tested against its signature)."""
 
 
 def check_equilibrium(
@@ -237,4 +239,4 @@ def _play_frames(
     return out
 
 
-__all__ = ["check_equilibrium", "exact_pose", "GJK_TOLERANCE", "FACETS", "POSES"]
+__all__ = ["CHECK_OPTIONS", "check_equilibrium", "exact_pose", "GJK_TOLERANCE", "FACETS", "POSES"]

@@ -300,6 +300,7 @@ class CheckReport:
             "gjk_tolerance": self.gjk_tolerance,
             "notes": list(self.notes),
             "exact_solve_time_s": self.exact_solve_time,
+            "information": self.information,
         }
 
 

@@ -384,9 +384,10 @@ def _cases(mechanism: Mechanism, loads: Any, configurations: Any) -> Cases:
     if loads is None and configurations is None:
         raise ClearancePinError("solve_many needs load cases, configurations, or both")
     if loads is not None and configurations is not None and len(loads) != len(configurations):
-        raise ClearancePinError(
-            f"solve_many pairs load cases with configurations: got {len(loads)} load cases and "
-            f"{len(configurations)} configurations"
+        raise ArgumentError(
+            "configurations",
+            f"one configuration per load case ({len(loads)}): solve_many pairs them",
+            f"{len(configurations)} configurations",
         )
     count = len(loads) if loads is not None else len(configurations)
     return Cases(loads, configurations, count)

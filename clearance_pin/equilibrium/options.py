@@ -78,10 +78,12 @@ class SolveOptions:
             return DEFAULT_OPTIONS
         unknown = [name for name in options if name not in NAMES]
         if unknown:
+            note = "unknown option"
+            if unknown[0] == "q":  # solve's configuration, given to a batch
+                note += "; many configurations go to solve_many(configurations=[q, ...])"
             raise ArgumentError(
-                unknown[0], f"one of the options {', '.join(NAMES)}", options[unknown[0]],
-                "unknown option",
-            )  # fmt: skip
+                unknown[0], f"one of the options {', '.join(NAMES)}", options[unknown[0]], note
+            )
         chosen = {**_DEFAULT_VALUES, **options}
         outputs = chosen["outputs"]
         if isinstance(outputs, Iterable) and not isinstance(outputs, (str, bytes, Mapping)):

@@ -147,6 +147,7 @@ class Resolver:
         *,
         errors: str = "raise",
         progress: bool | None = None,
+        **options: Any,
     ) -> Any:
         """Many re-solves in one call, from arrays: the force and torque vectors ``values``
         (N, k, 3) or (N, 3 k) [N, N m] (row n: case n's vectors, as :meth:`solve` takes one),
@@ -161,6 +162,12 @@ class Resolver:
         """
         from .batch import solve_many
 
+        if options:  # the resolver's own: given once, to mechanism.resolver(...)
+            name = next(iter(options))
+            raise ArgumentError(
+                name, "no solve option here: the resolver's options are given to "
+                "mechanism.resolver(loads, ...)", options[name], "unknown argument",
+            )  # fmt: skip
         vectors = self._vectors(values)
         poses = None  # every case at the resolver's own configuration
         if configurations is not None:
@@ -195,8 +202,12 @@ class Resolver:
         if raw.dtype.kind not in "fiu" or not shaped or len(raw) == 0:
             raise ArgumentError("values", expected, values)
         vectors = raw.astype(float).reshape(len(raw), self.size)
-        if not np.isfinite(vectors).all():
-            raise ArgumentError("values", expected, "values with an infinite or NaN entry")
+        finite = np.isfinite(vectors).all(axis=1)
+        if not finite.all():
+            first = int(np.flatnonzero(~finite)[0])
+            raise ArgumentError(
+                f"values[{first}]", expected, vectors[first], "an infinite or NaN entry"
+            )
         largest = np.abs(vectors).max(axis=1)
         beyond = (largest > self._largest_value) | ((largest > 0.0) & (largest < SMALLEST_LOAD))
         for index in np.flatnonzero(beyond)[:1].tolist():

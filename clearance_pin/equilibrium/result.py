@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 import numpy as np
 import pinocchio as pin
 
-from ..errors import NotFoundError
+from ..errors import ArgumentError, NotFoundError
 from ..kinematics.joint_shares import joint_levers, moved_by
 from ..kinematics.loop_frames import RIGID_TOLERANCE
 from ..model.frames import frame_id as find_frame
@@ -333,9 +333,18 @@ class Equilibrium:
         return tuple(c for c in self.contacts if c.active)
 
     def check(self, **options: Any) -> CheckReport:
-        """Measure the solved pose with coal (see :mod:`clearance_pin.check`)."""
-        from ..check import check_equilibrium
+        """Measure the solved pose with coal (see :mod:`clearance_pin.check`): ``options`` of
+        :func:`~clearance_pin.check.check_equilibrium` (``pose``, ``bores``, ``journal_radius``,
+        ``facets``, ``mesh_faceting``, ``gjk_tolerance``; a small-displacement answer is judged
+        on its exact pose unless ``pose="as_solved"``)."""
+        from ..check import CHECK_OPTIONS, check_equilibrium
 
+        for name, value in options.items():
+            if name not in CHECK_OPTIONS:
+                raise ArgumentError(
+                    name, f"one of the options {', '.join(CHECK_OPTIONS)}", value,
+                    "unknown option of check()",
+                )  # fmt: skip
         return check_equilibrium(self, **options)
 
     def to_dict(self, length: float = 1.0, unit: str = "m") -> dict[str, Any]:
