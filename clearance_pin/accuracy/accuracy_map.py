@@ -164,8 +164,7 @@ def accuracy_map(
             [loads] * count, configurations=poses, gravity=gravity, errors="return"
         )
         ok[:, k] = batch.ok
-        first = batch[0]
-        if not ok[:, k].any() and isinstance(first, Exception):
+        if not ok[:, k].any() and isinstance(first := batch[0], Exception):
             raise first  # no pose solves: a fault of the model or the payload, said once
         for joint in joints:
             if joint.name not in levers:

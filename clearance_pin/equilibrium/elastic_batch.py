@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..model.stiffness import elastic
-from ..numerics import Array
+from ..numerics import Array, Mask
 from .batch import EquilibriumBatch
 from .batch_answers import torsor_twists
 from .batch_kinematics import body_placements
@@ -99,14 +99,13 @@ class RigidPlay(EquilibriumBatch):
         self._check_joint(joint)
         if part is not None:
             return super().reactions(joint, frame, part)
-        configurations = self._cases.configurations
-        placed = _placements(self.twin, configurations)
-        whole = self.__dict__.get("_whole")
-        if whole is None:
-            whole = self.__dict__["_whole"] = tree_reactions(
+        placed = self.__dict__.get("_placed")
+        if placed is None:
+            placed = self.__dict__["_placed"] = _placements(self.twin, self._cases.configurations)
+            self.__dict__["_whole"] = tree_reactions(
                 self.twin, self._cases.load_column(), self._options.gravity, *placed
             )
-        return in_frame(self.twin, joint, whole[joint], frame, *placed)
+        return in_frame(self.twin, joint, self.__dict__["_whole"][joint], frame, *placed)
 
     @property
     def methods(self) -> list[Method | str]:
@@ -139,9 +138,8 @@ class ElasticTreeBatch(EquilibriumBatch):
         self._cases, self._options = cases, options
         started = time.perf_counter()
         stiff = [joint for joint in mechanism.tree_joints if elastic(joint.clearance)[1].size]
-        reactions = tree_reactions(
-            mechanism, cases.load_column(), options.gravity, *self._placements()
-        )
+        self._placed = _placements(mechanism, cases.configurations)
+        reactions = tree_reactions(mechanism, cases.load_column(), options.gravity, *self._placed)
         self._springs = {
             joint.name: spring_deflections(joint, reactions[joint.name]) for joint in stiff
         }
@@ -195,8 +193,16 @@ class ElasticTreeBatch(EquilibriumBatch):
         """The spring deflection of ``joint`` in every case, (N, 6) [m, rad] (zero for a rigid
         joint; NaN for failed cases)."""
         self._check_joint(joint)
-        solved = np.isfinite(self.play.torsors(joint))
-        return np.where(solved, self._springs.get(joint, 0.0), np.nan)
+        return np.where(self._solved(), self._springs.get(joint, 0.0), np.nan)
+
+    def _solved(self) -> Mask:
+        """Per case (N, 1): the play has an answer (an error's row reads NaN), read once."""
+        solved: Mask | None = self.__dict__.get("_solved_rows")
+        if solved is None:
+            first = self.mechanism.tree_joints[0].name
+            solved = np.isfinite(self.play.torsors(first)).all(axis=1, keepdims=True)
+            self.__dict__["_solved_rows"] = solved
+        return solved
 
     def frame_displacements(self, frame: str) -> tuple[Array, Array]:
         """World displacement of a Pinocchio frame in every case (translations (N, 3) [m],
@@ -209,7 +215,7 @@ class ElasticTreeBatch(EquilibriumBatch):
         if frame_id is None:
             names = [f.name for f in model.frames]
             raise NotFoundError("frame", frame, names, self.mechanism.name)
-        rotations, translations = self._placements()
+        rotations, translations = self._placed
         torsors = {joint.name: self.torsors(joint.name) for joint in self.mechanism.tree_joints}
         twists = torsor_twists(self.mechanism, rotations, translations, torsors)
         placed = model.frames[frame_id]
@@ -218,9 +224,6 @@ class ElasticTreeBatch(EquilibriumBatch):
         origin = rotation @ placed.placement.translation + translations[:, body]
         translation = twists[:, body, :3] + np.cross(twists[:, body, 3:], origin)
         return translation, twists[:, body, 3:].copy()
-
-    def _placements(self) -> tuple[Array, Array]:
-        return _placements(self.mechanism, self._cases.configurations)
 
     def reactions(self, joint: str, frame: str = "joint", part: str | None = None) -> Array:
         """The twin's (:meth:`.batch.EquilibriumBatch.reactions`): the same statics."""

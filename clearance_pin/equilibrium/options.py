@@ -91,13 +91,6 @@ class SolveOptions:
         check_options(**chosen)
         return cls(**chosen)  # type: ignore[arg-type]  # each checked above
 
-    def keywords(self) -> SolveKeywords:
-        """The options as keywords (for a batch's tasks and the items it solves alone)."""
-        return SolveKeywords(
-            exact=self.exact, gravity=self.gravity, tol=self.tol, backend=self.backend,
-            accuracy=self.accuracy, warm_start=self.warm_start, outputs=self.outputs,
-        )  # fmt: skip
-
 
 NAMES = tuple(field.name for field in fields(SolveOptions))
 _DEFAULT_VALUES: dict[str, object] = {field.name: field.default for field in fields(SolveOptions)}
