@@ -292,9 +292,7 @@ def perturbed_loads(mechanism, count: int, relative: float, rng) -> list[tuple]:
         for i in range(params.size):
             unit = np.zeros(params.size)
             unit[i] = 1.0
-            body_loads = gather_body_loads(
-                mechanism.model, configuration, rebuild(unit), mechanism.link_frames
-            )
+            body_loads = gather_body_loads(mechanism, rebuild(unit), configuration.oMi)
             columns.append(load_gradient(body_loads, maps.body_twist))
         work_on_free = free.T @ np.array(columns).T * scales  # (k, p)
         _, s, vt = np.linalg.svd(work_on_free)

@@ -33,7 +33,6 @@ from .cone_solver import acceptance
 from .kkt import RESIDUAL_NAMES, UNLOADED, StackedContacts
 from .lazy import LazySequence
 from .linear_answer import assemble_linear
-from .load_table import body_terms, centred_wrenches
 from .method import Method
 from .reduction import ReducedProblem, describe_motion
 from .residuals import verified
@@ -177,25 +176,22 @@ def centred_problem(
 ) -> ReducedProblem | None:
     r"""``problem`` with the gradient of ``loads`` formed from the wrenches about each joint's
     own centre (:mod:`.tree_trajectory`: :math:`g = W G`, W the body wrenches about the body
-    origins, :func:`.load_table.centred_wrenches`), rather than from the wrenches about the
+    origins, :attr:`.load_map.LoadMap.centred`), rather than from the wrenches about the
     world origin the general path reads (:meth:`.prepared.PreparedGeometry.problem`): the same
     gradient [J per unit], without the round-off of :math:`c \times F` subtracted from a moment
     about the origin; f = Q^T Z g / sigma and sigma [J] follow. None when no load works."""
-    geometry = prepared.geometry
-    loaded = geometry.__dict__.get("_body_terms")
-    if loaded is None:  # the mechanism's (one tree geometry for all its configurations)
-        loaded = body_terms(prepared.mechanism)
-        object.__setattr__(geometry, "_body_terms", loaded)  # frozen: a derived, private cache
-    terms = prepared.__dict__.get("_centred")
-    if terms is None:  # per configuration: body rotations, the map G and the gravities' memo
+    gradient_map = prepared.__dict__.get("_centred")
+    if gradient_map is None:  # per configuration: the map from the centred wrenches to g
         placed = prepared.configuration.oMi
         rotations = np.array([m.rotation for m in placed])
         translations = np.array([m.translation for m in placed])
-        maps = tree_maps(prepared.mechanism, geometry)
-        terms = (rotations, centre_map(maps, rotations, translations), {})
-        prepared.__dict__["_centred"] = terms  # a derived, private cache of this configuration
-    rotations, gradient_map, memo = terms
-    wrench = centred_wrenches(loaded, rotations, loads, memo)
+        maps = tree_maps(prepared.mechanism, prepared.geometry)
+        gradient_map = prepared.__dict__["_centred"] = centre_map(maps, rotations, translations)
+    mapped = prepared.load_map(loads)
+    if mapped is None:
+        return None
+    built, _, vectors = mapped
+    wrench = built.centred @ vectors
     gradient = wrench.reshape(-1) @ gradient_map
     scaled = gradient * structure.scale
     reduced = scaled if structure.plain else scaled @ structure.basis

@@ -28,7 +28,7 @@ if TYPE_CHECKING:  # prepared.py imports this module
     from .reduction import ReducedGeometry
 
 GEOMETRIES_KEPT = 64  # prepared configurations per mechanism (a trajectory re-visits few)
-GRAVITIES_KEPT = 16  # gathered gravity wrenches per prepared configuration (a tilting base)
+LOAD_MAPS_KEPT = 64  # load maps per prepared configuration and per kernel (sets of loaded points)
 BACKENDS_KEPT = 16  # built optimisers per mechanism (one per structure, backend and tol)
 EXACT_PROBLEMS_KEPT = 16  # built exact problems per mechanism (one per structure and tol)
 
@@ -148,10 +148,10 @@ class SolveCache:
 
 
 __all__ = [
+    "LOAD_MAPS_KEPT",
     "BACKENDS_KEPT",
     "EXACT_PROBLEMS_KEPT",
     "GEOMETRIES_KEPT",
-    "GRAVITIES_KEPT",
     "LeastRecentlyUsed",
     "SolveCache",
 ]

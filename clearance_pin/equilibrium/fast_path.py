@@ -34,13 +34,15 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import KernelUnavailableWarning
-from ..model.loads import Gravity, Load, PointForce, Torque
+from ..model.loads import Gravity, Load
 from ..numerics import Array, Index, Mask
+from .cache import LOAD_MAPS_KEPT, LeastRecentlyUsed
 from .cone_solver import WARM_MAX_SIZE, Backend, ConeSolution, acceptance
 from .frozen import FieldTemplate
 from .kkt import ACTIVE_GAP, POLISH_TOL, PROXIMAL, UNLOADED
 from .lazy import LazySequence
 from .linear_answer import Outcome, linear_equilibrium
+from .load_map import LoadSignature
 from .load_table import uniform_vectors
 from .method import Method, backend_method
 from .outputs import OutputPoint
@@ -63,7 +65,6 @@ TOLERANCES = np.array(
 # left 6 of 50 loads to Clarabel, with 8 3 of 50); the polish of a backend's answer gets ROUNDS
 ROUNDS, WARM_ROUNDS, CENTRE_ROUNDS_PER_CONTACT, ITERATIONS = 10, 3, 8, 12
 POOL = 64  # recent answers the kernel keeps per geometry, the starts of warm solves
-LOAD_MAPS_KEPT = 64  # sets of loaded points kept per configuration
 
 
 class CompiledKernel(Protocol):
@@ -224,11 +225,10 @@ def _write_record(kernel: CompiledKernel) -> None:
 
 # the kernel's layout of a geometry's contacts (matrix, offset, starts, is_norm), of its pool of
 # recent answers (f, y, multipliers, sides, (entries, next slot)), of solve_cases' arguments from
-# the load map to the guess, and the key of a set of loaded points (link, point or gravity)
+# the load map to the guess
 Cone = tuple[Array, Array, Index, Mask]
 Pool = tuple[Array, Array, Array, Array, Index]
 LoadArguments = tuple[Array, Array, Array, int, Array, Array, Array, Index, Mask]
-LoadKey = tuple[tuple[str | None, bytes | None], ...]
 
 
 class BoundLoads(NamedTuple):
@@ -283,7 +283,10 @@ class FastTerms:
         self.clearance = float(terms.bounds.max(initial=0.0))
         self.accept = acceptance(prepared.geometry.conditioning)
         self.centre_rounds = ROUNDS + CENTRE_ROUNDS_PER_CONTACT * stack.count
-        self.load_maps: dict[LoadKey, BoundLoads] = {}
+        # per signature and gravity vector (a tilting base: a new one each solve)
+        self.load_maps: LeastRecentlyUsed[tuple[LoadSignature, bytes], BoundLoads] = (
+            LeastRecentlyUsed(LOAD_MAPS_KEPT)
+        )
         # the columns of solve_cases' rows after its scalars (kernel.solve_cases)
         m, joints, bodies = stack.count, len(terms.joint_names), prepared.bodies
         sizes = (
@@ -422,30 +425,23 @@ class FastTerms:
         return None if bound is None else (bound[0], bound[1].matrix, bound[1].constant)
 
     def load_binding(self, loads: Sequence[object]) -> tuple[Array, BoundLoads] | None:
-        """(p, the :class:`BoundLoads` of the loads' kinds, links and points), kept per set of
-        loaded points; None for a load of another kind."""
-        key: list[tuple[str | None, bytes | None]] = []
-        vectors: list[Array] = []
-        for load in loads:
-            if type(load) is PointForce:
-                key.append((load.link, load.point.tobytes()))
-                vectors.append(load.force)
-            elif type(load) is Torque:
-                key.append((load.link, None))
-                vectors.append(load.torque)
-            elif type(load) is Gravity:
-                key.append((None, load.acceleration.tobytes()))
-            else:
-                return None
-        signature = tuple(key)
+        """(p, the :class:`BoundLoads` of the loads' kinds, links, points and gravity), from
+        the prepared geometry's :class:`~.load_map.LoadMap` (the gravities' columns times their
+        accelerations are w0), kept per set of loaded points and gravity; None for a load of
+        another kind."""
+        mapped = self.prepared.load_map(loads)
+        if mapped is None:
+            return None
+        built, key, vectors = mapped
+        accelerations = vectors[built.fixed]
+        signature = (key, accelerations.tobytes())
         bound = self.load_maps.get(signature)
         if bound is None:
-            matrix, constant = self._build_load_map(loads)
+            matrix = np.ascontiguousarray(built.world[:, built.varying])
+            constant = np.ascontiguousarray(built.world[:, built.fixed] @ accelerations)
             bound = BoundLoads(matrix, constant, (matrix, constant, *self._load_arguments()))
-            if len(self.load_maps) < LOAD_MAPS_KEPT:
-                self.load_maps[signature] = bound
-        params = np.concatenate(vectors) if vectors else np.zeros(0)
-        return params, bound
+            self.load_maps[signature] = bound
+        return np.ascontiguousarray(vectors[built.varying]), bound
 
     def _load_arguments(self) -> tuple[Array, int, Array, Array, Array, Index, Mask]:
         """solve_cases' arguments between the load map and the guess."""
@@ -465,25 +461,6 @@ class FastTerms:
         if mapped is None:
             return None
         return np.ascontiguousarray(vectors.vectors, dtype=float), mapped[1], mapped[2]
-
-    def _build_load_map(self, loads: Sequence[object]) -> tuple[Array, Array]:
-        """A column per component of a force or torque (the wrench of that unit load alone;
-        the wrench is linear in it) and w0 the wrench of the gravity loads."""
-        wrenches = self.prepared.wrenches
-        fixed = tuple(load for load in loads if type(load) is Gravity)
-        constant = wrenches(fixed).ravel()
-        columns: list[Array] = []
-        units: list[Load]
-        for load in loads:  # PointForce, Torque and Gravity loads (load_binding)
-            if type(load) is PointForce:
-                units = [PointForce(load.link, force=axis, point=load.point) for axis in np.eye(3)]
-            elif type(load) is Torque:
-                units = [Torque(load.link, axis) for axis in np.eye(3)]
-            else:  # gravity: in w0
-                continue
-            columns.extend(wrenches((unit,)).ravel() for unit in units)
-        matrix = np.array(columns).T if columns else np.zeros((constant.size, 0))
-        return np.ascontiguousarray(matrix), np.ascontiguousarray(constant)
 
 
 def fast_terms(prepared: PreparedGeometry) -> FastTerms | None:

@@ -1,4 +1,4 @@
-r"""Many load cases as arrays: one row per load term on a body, and the body wrenches of all cases.
+r"""The one reading of loads: one row per load term on a body, and the body wrenches of all cases.
 
 The loads of N cases (each a list of :class:`~clearance_pin.model.loads.PointForce`,
 ``Torque`` and ``Gravity``, resolved as :meth:`Mechanism.resolve_loads` resolves them) become rows
@@ -12,10 +12,13 @@ origin :math:`t_b` (world axes) is
 summed per case and body by one weighted count per component: the lever arms are the points'
 offsets :math:`R_b p` from the body origin, never their world positions, so that the moments
 about the joint centres (:mod:`.tree_trajectory`) are formed without the round-off of a moment
-about the world origin (:mod:`.load_terms` forms that one, :math:`\sum (R_b p + t_b) \times F + C`,
-for the general path). :func:`centred_wrenches` does the same for the loads of one solve. A case
-whose loads cannot be read (an unknown link, not a load) is marked invalid and left to a single
-solve, which raises or reports its error.
+about the world origin; the moments about the world origin,
+:math:`\sum (R_b p + t_b) \times F + C`, come beside them. Every engine reads its loads through
+here: a batch through its table, one solve through the linear map of its loads' signature formed
+from unit loads (:mod:`.load_map`), the exact model through its table's per-body sums
+(:func:`.load_terms.gather_body_loads`). A case whose loads cannot be read (an unknown link, not
+a load) is marked invalid and left to a single solve, which raises or reports its error
+(:func:`check_links`).
 """
 
 from __future__ import annotations
@@ -28,8 +31,9 @@ from typing import TYPE_CHECKING, overload
 
 import numpy as np
 
+from ..errors import LoadError
 from ..model.loads import Gravity, PointForce, Torque, with_vector
-from ..numerics import Array, Index, Mask, cross
+from ..numerics import Array, Index, Mask
 
 if TYPE_CHECKING:
     from ..model.mechanism_parts import MechanismParts as Mechanism
@@ -335,95 +339,23 @@ def body_wrenches(
     return out, about
 
 
-_NEXT, _LAST = np.array([1, 2, 0]), np.array([2, 0, 1])  # (a x b)_i = a_j b_k - a_k b_j
-
-
-@dataclass(frozen=True)
-class BodyTerms:
-    """The configuration-independent terms of one solve's loads (:func:`centred_wrenches`).
-
-    Attributes:
-        masses: every body's mass (bodies,) [kg] (0 for the ground); levers: the centres of
-            mass in the body frames (bodies, 3) [m].
-        links: per link name, its body (Pinocchio joint index, 0 the ground) and the link frame
-            in the body's, :math:`(R_l, t_l)` ((3, 3), (3,) [m]).
-    """
-
-    masses: Array
-    levers: Array
-    links: dict[str, tuple[int, Array, Array]]
-
-
-def body_terms(mechanism: Mechanism) -> BodyTerms:
-    """The :class:`BodyTerms` of a mechanism (from its model's inertias and link frames)."""
-    model = mechanism.model
-    inertias = [model.inertias[b] for b in range(model.njoints)]
-    links = {}
-    for name, frame_id in mechanism.link_frames.items():
-        frame = model.frames[frame_id]
-        placement = frame.placement
-        links[name] = (
-            int(frame.parentJoint),
-            placement.rotation.copy(),
-            placement.translation.copy(),
-        )
-    masses = np.array([inertia.mass for inertia in inertias])
-    masses[0] = 0.0  # the ground does no work
-    return BodyTerms(
-        masses=masses,
-        levers=np.array([np.array(inertia.lever) for inertia in inertias]).reshape(-1, 3),
-        links=links,
-    )
-
-
-def centred_wrenches(
-    terms: BodyTerms, rotations: Array, loads: Sequence[object], memo: dict[bytes, Array]
-) -> Array:
-    r"""The body wrenches (bodies, 6) [N, N m] of one solve's loads (resolved: PointForce,
-    Torque, Gravity) about the body origins, world axes, as :func:`body_wrenches` forms them:
-    a force F at the point p of a link adds :math:`(F, (R_b (R_l p + t_l)) \times F)` to its
-    body (:math:`(R_l, t_l)` the link frame in the body's), a torque C adds (0, C), a gravity a
-    adds :math:`(m a, (R_b c) \times m a)` to every body with mass (c its centre of mass).
-
-    Args:
-        terms: the mechanism's :class:`BodyTerms`.
-        rotations: the body rotations (bodies, 3, 3) of the configuration.
-        memo: a dict kept by the caller for this configuration: the wrenches of each gravity,
-            per acceleration.
-    """
-    out = np.zeros((rotations.shape[0], 6))
+def check_links(mechanism: Mechanism, loads: Sequence[object]) -> None:
+    """A LoadError naming the first force or torque on a link the model does not have (a
+    batch's table marks that case invalid instead, for its single solve to raise this)."""
+    links = mechanism.link_frames
     for load in loads:
-        if isinstance(load, Gravity):
-            acceleration = np.asarray(load.acceleration, dtype=float)
-            key = acceleration.tobytes()
-            weights = memo.get(key)
-            if weights is None:  # (m a, (R_b c) x m a) on every body (0 without mass)
-                c = np.einsum("bij,bj->bi", rotations, terms.levers)  # R_b c [m]
-                w = terms.masses[:, None] * acceleration
-                turning = c[:, _NEXT] * w[:, _LAST] - c[:, _LAST] * w[:, _NEXT]  # c x w
-                weights = memo[key] = np.concatenate((w, turning), axis=1)
-            out += weights
-        elif isinstance(load, (PointForce, Torque)):
-            body, rotation, origin = terms.links[load.link]
-            if body == 0:
-                continue  # a load on the fixed ground does no work
-            if isinstance(load, PointForce):
-                out[body, :3] += load.force
-                lever = rotations[body] @ (rotation @ load.point + origin)
-                out[body, 3:] += cross(lever, load.force)
-            else:
-                out[body, 3:] += load.torque
-    return out
+        link = getattr(load, "link", None)
+        if link is not None and link not in links:
+            known = ", ".join(sorted(links))
+            raise LoadError(f"on {link!r}", f"unknown link; the model's links are: {known}")
 
 
 __all__ = [
-    "BodyTerms",
     "LoadTable",
     "LoadVectors",
-    "uniform_vectors",
-    "body_terms",
     "body_wrenches",
-    "centred_wrenches",
+    "check_links",
     "load_table",
     "repeated",
+    "uniform_vectors",
 ]

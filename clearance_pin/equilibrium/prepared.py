@@ -3,11 +3,11 @@ r"""Everything a small-displacement solve at one nominal configuration needs, co
 Build once, solve many: a planner re-solves the same configuration with new loads thousands of
 times, so every load-independent product is formed here, and a solve costs a few array products.
 
-- *Load to objective.* The loads gather into body wrenches :math:`W_b = (F, p \times F + C)` at the
-  world origin (:mod:`.load_terms`); the scaled gradient of the potential is
-  :math:`Z g = -\sum_b Z J_b^T W_b` (:math:`J_b`: body twist map), and its reduced part
-  :math:`Q^T Z g` and its part along the unblocked motions :math:`K^T Z g` follow from one
-  stacked matrix on the stacked wrenches.
+- *Load to objective.* The loads act through body wrenches :math:`W_b = (F, p \times F + C)` at
+  the world origin, one linear map of their vectors per set of loaded points (:mod:`.load_map`);
+  the scaled gradient of the potential is :math:`Z g = -\sum_b Z J_b^T W_b` (:math:`J_b`: body
+  twist map), and its reduced part :math:`Q^T Z g` and its part along the unblocked motions
+  :math:`K^T Z g` follow from one stacked matrix on the stacked wrenches.
 - *Answer.* Joint torsors, body twists and contact images are stacked maps of x; the contact
   forces and the statics residual are vectorised over contacts.
 - *Indeterminacy.* The motions along which the optimum is not unique
@@ -25,13 +25,14 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from ..errors import LoadError
 from ..model.couplings import passive
-from ..model.loads import Gravity
 from ..numerics import Array, Mask, column_space, null_space
-from .cache import GRAVITIES_KEPT, LeastRecentlyUsed, SolveCache
+from .cache import LOAD_MAPS_KEPT, LeastRecentlyUsed, SolveCache
 from .kkt import UNLOADED
 from .lazy import LazySequence
-from .load_terms import BodyLoad, PlacementMemo, gather_body_loads
+from .load_map import LoadMap, LoadSignature, build_load_map, signature_of
+from .load_terms import BodyLoad, gather_body_loads
 from .reduction import (
     ROUND_OFF_WORK,
     UNBOUNDED_FRACTION,
@@ -91,10 +92,9 @@ class PreparedGeometry:
         }
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
-        self._placements = PlacementMemo()  # loaded links and masses at this configuration
-        # per acceleration at this q: the few most recent (a tilting base gives a new one per solve)
-        self._gravity_wrenches: LeastRecentlyUsed[bytes, np.ndarray] = LeastRecentlyUsed(
-            GRAVITIES_KEPT
+        self._rotations = np.array([m.rotation for m in configuration.oMi])
+        self._load_maps: LeastRecentlyUsed[LoadSignature, LoadMap] = LeastRecentlyUsed(
+            LOAD_MAPS_KEPT
         )
 
     @property
@@ -123,33 +123,30 @@ class PreparedGeometry:
         return self.terms.joint_names
 
     # -- loads ---------------------------------------------------------------------------------
-    def wrenches(self, loads: Sequence[Load]) -> Array:
-        """Body wrenches at the world origin (bodies, 6) [N, N m] of ``loads`` (ground excluded),
-        from the one gathering of loads per body (:func:`~.load_terms.gather_body_loads`); a
-        gravity's, the same at this configuration for every solve, gathered once per
-        acceleration (the wrenches add up) and kept for the :data:`~.cache.GRAVITIES_KEPT` most
-        recent accelerations."""
-        others = [load for load in loads if type(load) is not Gravity]
-        wrench = self._gathered(others)
-        if len(others) < len(loads):
-            for load in loads:
-                if type(load) is Gravity:
-                    key = np.asarray(load.acceleration, dtype=float).tobytes()
-                    weights = self._gravity_wrenches.get(key)
-                    if weights is None:
-                        weights = self._gravity_wrenches[key] = self._gathered([load])
-                    wrench += weights
-        return wrench
+    def load_map(self, loads: Sequence[object]) -> tuple[LoadMap, LoadSignature, Array] | None:
+        """(the :class:`~.load_map.LoadMap` of the signature of ``loads`` at this configuration,
+        that signature, the loads' vectors p (3 k,)), the map formed on first use and kept for
+        the :data:`~.cache.LOAD_MAPS_KEPT` most recent signatures; None when one of ``loads``
+        is not a PointForce, Torque or Gravity."""
+        signed = signature_of(loads)
+        if signed is None:
+            return None
+        key, vectors = signed
+        built: LoadMap | None = self._load_maps.get(key)
+        if built is None:
+            built = self._load_maps[key] = build_load_map(
+                self.mechanism, loads, self._rotations, self._origins
+            )
+        return built, key, vectors
 
-    def _gathered(self, loads: Sequence[Load]) -> Array:
-        wrench = np.zeros((self.bodies, 6))
-        if not loads:
-            return wrench
-        model, links = self.mechanism.model, self.mechanism.link_frames
-        gathered = gather_body_loads(model, self.configuration, loads, links, self._placements)
-        for body, load in gathered.items():
-            wrench[body] = load.wrench
-        return wrench
+    def wrenches(self, loads: Sequence[Load]) -> Array:
+        """Body wrenches at the world origin (bodies, 6) [N, N m] of resolved ``loads`` (ground
+        row 0): W = A p (:mod:`.load_map`)."""
+        mapped = self.load_map(loads)
+        if mapped is None:
+            raise LoadError("loads", "PointForce, Torque and Gravity loads only")
+        built, _, vectors = mapped
+        return (built.world @ vectors).reshape(self.bodies, 6)
 
     def problem(self, loads: Sequence[Load]) -> ReducedProblem:
         """The reduced problem of ``loads`` (raises UnboundedLoadError, see
@@ -503,7 +500,7 @@ def linear_setup(
     """Configuration, maps, per-body loads (with the exact model's terms) and reduced problem."""
     prepared = prepared_geometry(mechanism, q)
     configuration = prepared.configuration
-    body_loads = gather_body_loads(mechanism.model, configuration, loads, mechanism.link_frames)
+    body_loads = gather_body_loads(mechanism, loads, configuration.oMi)
     return configuration, prepared.maps, body_loads, prepared.problem(loads)
 
 

@@ -365,8 +365,7 @@ def _body_wrenches(
     """Per body, its loads as one wrench (force [N], moment about the world origin [N m]) at the
     pose ``placements``: dead loads at their moved points, and for the exact model the moment
     :math:`\\tfrac12 (\\mathrm{tr}(A) I - A^T) C` of a torque (module docstring)."""
-    placed = SimpleNamespace(oMi=placements)
-    gathered = gather_body_loads(mechanism.model, placed, tuple(loads), mechanism.link_frames)
+    gathered = gather_body_loads(mechanism, tuple(loads), placements)
     wrenches = {}
     for body, load in gathered.items():
         wrench = load.wrench.copy()
