@@ -114,37 +114,44 @@ def check_load_magnitudes(loads: Iterable[object], argument: str = "loads") -> N
     Raises:
         LoadError: naming the load and its magnitude.
     """
-    largest, largest_label, largest_unit = 0.0, "", ""
-    where = "" if argument == "loads" else f" in {argument}"
-    for load in loads:
+    largest, largest_load, largest_unit = 0.0, None, ""
+    for load in loads:  # the labels are written only for an error (this runs on every solve)
         if isinstance(load, PointForce):
-            label = f"force on {load.link!r}{where}"
             point = _largest(load.point)
             if point > LARGEST_MAGNITUDE:
-                raise LoadError(label, _too_large("point", point, "m"))
+                raise LoadError(_load_label(load, argument), _too_large("point", point, "m"))
             force = _largest(load.force)
             magnitude, unit = force, "N"
             if force * point > force:  # a point farther than 1 m: its moment is the larger
                 magnitude, unit = force * point, "N m (the moment |p x F| about the link origin)"
         elif isinstance(load, Torque):
-            label, unit = f"torque on {load.link!r}{where}", "N m"
-            magnitude = _largest(load.torque)
+            magnitude, unit = _largest(load.torque), "N m"
         elif isinstance(load, Gravity):
-            label, unit = f"gravity{where}", "m/s^2"
-            magnitude = _largest(load.acceleration)
+            magnitude, unit = _largest(load.acceleration), "m/s^2"
         else:
             continue  # not a load: refused, naming it, by Mechanism.resolve_loads
         if magnitude > LARGEST_MAGNITUDE:
-            raise LoadError(label, _too_large("magnitude", magnitude, unit))
+            raise LoadError(_load_label(load, argument), _too_large("magnitude", magnitude, unit))
         if magnitude > largest:
-            largest, largest_label, largest_unit = magnitude, label, unit
+            largest, largest_load, largest_unit = magnitude, load, unit
     if 0.0 < largest < SMALLEST_LOAD:
         raise LoadError(
-            largest_label,
+            _load_label(largest_load, argument),
             f"the largest load is {largest:.3g} {largest_unit}, below the smallest taken, "
             f"{SMALLEST_LOAD:.0e} (double precision loses its square); the settled pose does not depend "
             "on the loads' common scale: multiply them all by one factor",
         )
+
+
+def _load_label(load: object, argument: str) -> str:
+    """How an error names a load: "force on 'link'", "torque on 'link'" or "gravity", with
+    " in <argument>" unless the argument is ``loads``."""
+    where = "" if argument == "loads" else f" in {argument}"
+    if isinstance(load, PointForce):
+        return f"force on {load.link!r}{where}"
+    if isinstance(load, Torque):
+        return f"torque on {load.link!r}{where}"
+    return f"gravity{where}"
 
 
 def _check_case_magnitudes(cases: Sequence[object]) -> None:

@@ -51,8 +51,10 @@ class LeastRecentlyUsed(OrderedDict[Key, Value], Generic[Key, Value]):
 
     def __getitem__(self, key: Key) -> Value:
         value = super().__getitem__(key)
-        with contextlib.suppress(KeyError):  # dropped by another thread meanwhile
+        try:
             self.move_to_end(key)
+        except KeyError:  # dropped by another thread meanwhile
+            pass
         return value
 
     def get(self, key: Key, default: Any = None) -> Any:

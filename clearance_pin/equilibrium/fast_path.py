@@ -36,13 +36,11 @@ import numpy.typing as npt
 from ..errors import KernelUnavailableWarning
 from ..model.loads import Gravity, Load
 from ..numerics import Array, Index, Mask
-from .cache import LOAD_MAPS_KEPT, LeastRecentlyUsed
 from .cone_solver import WARM_MAX_SIZE, Backend, ConeSolution, acceptance
 from .frozen import FieldTemplate
 from .kkt import ACTIVE_GAP, POLISH_TOL, PROXIMAL, UNLOADED
 from .lazy import LazySequence
 from .linear_answer import Outcome, linear_equilibrium
-from .load_map import LoadSignature
 from .load_table import uniform_vectors
 from .method import Method, backend_method
 from .outputs import OutputPoint
@@ -283,10 +281,6 @@ class FastTerms:
         self.clearance = float(terms.bounds.max(initial=0.0))
         self.accept = acceptance(prepared.geometry.conditioning)
         self.centre_rounds = ROUNDS + CENTRE_ROUNDS_PER_CONTACT * stack.count
-        # per signature and gravity vector (a tilting base: a new one each solve)
-        self.load_maps: LeastRecentlyUsed[tuple[LoadSignature, bytes], BoundLoads] = (
-            LeastRecentlyUsed(LOAD_MAPS_KEPT)
-        )
         # the columns of solve_cases' rows after its scalars (kernel.solve_cases)
         m, joints, bodies = stack.count, len(terms.joint_names), prepared.bodies
         sizes = (
@@ -427,20 +421,20 @@ class FastTerms:
     def load_binding(self, loads: Sequence[object]) -> tuple[Array, BoundLoads] | None:
         """(p, the :class:`BoundLoads` of the loads' kinds, links, points and gravity), from
         the prepared geometry's :class:`~.load_map.LoadMap` (the gravities' columns times their
-        accelerations are w0), kept per set of loaded points and gravity; None for a load of
-        another kind."""
+        accelerations are w0), kept on the map per gravity vector; None for a load of another
+        kind."""
         mapped = self.prepared.load_map(loads)
         if mapped is None:
             return None
-        built, key, vectors = mapped
+        built, _, vectors = mapped
         accelerations = vectors[built.fixed]
-        signature = (key, accelerations.tobytes())
-        bound = self.load_maps.get(signature)
+        gravity = accelerations.tobytes()
+        bound: BoundLoads | None = built.bound.get(gravity)
         if bound is None:
             matrix = np.ascontiguousarray(built.world[:, built.varying])
             constant = np.ascontiguousarray(built.world[:, built.fixed] @ accelerations)
             bound = BoundLoads(matrix, constant, (matrix, constant, *self._load_arguments()))
-            self.load_maps[signature] = bound
+            built.bound[gravity] = bound
         return np.ascontiguousarray(vectors[built.varying]), bound
 
     def _load_arguments(self) -> tuple[Array, int, Array, Array, Array, Index, Mask]:

@@ -18,13 +18,14 @@ body's origin) and the compiled kernel (:meth:`.fast_path.FastTerms.load_binding
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..model.loads import Gravity, PointForce, Torque
 from ..numerics import Array, Index
+from .cache import LOAD_MAPS_KEPT, LeastRecentlyUsed
 from .load_table import body_wrenches, check_links, load_table
 
 if TYPE_CHECKING:
@@ -66,12 +67,17 @@ class LoadMap:
         centred: A for the moments about each body's own origin (world axes), (6 bodies, 3 k).
         varying: the columns of the forces and torques (a slice when they come first, as
             resolved loads put gravity last); fixed: those of the gravities.
+        bound: what an engine binds to this map, per gravity vector (the kernel's arguments,
+            :meth:`.fast_path.FastTerms.load_binding`), the most recent kept.
     """
 
     world: Array
     centred: Array
     varying: slice | Index
     fixed: slice | Index
+    bound: LeastRecentlyUsed[bytes, Any] = field(
+        default_factory=lambda: LeastRecentlyUsed(LOAD_MAPS_KEPT)
+    )
 
 
 def build_load_map(

@@ -33,6 +33,7 @@ from .kkt import UNLOADED
 from .lazy import LazySequence
 from .load_map import LoadMap, LoadSignature, build_load_map, signature_of
 from .load_terms import BodyLoad, gather_body_loads
+from .method import Method
 from .reduction import (
     ROUND_OFF_WORK,
     UNBOUNDED_FRACTION,
@@ -93,6 +94,8 @@ class PreparedGeometry:
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
         self._rotations = np.array([m.rotation for m in configuration.oMi])
+        # the engines a solve here tries, per (backend, answered before, kernel installed)
+        self.plans: dict[tuple[str, bool, bool], tuple[Method, ...]] = {}
         self._load_maps: LeastRecentlyUsed[LoadSignature, LoadMap] = LeastRecentlyUsed(
             LOAD_MAPS_KEPT
         )

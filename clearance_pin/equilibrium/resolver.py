@@ -113,8 +113,12 @@ class Resolver:
         if largest > self._largest_value or 0.0 < largest < SMALLEST_LOAD:
             check_load_magnitudes(self._loads_with(vector), "values")
         mechanism, options = self.mechanism, self.options
-        if self._compiled and Method.COMPILED in self._plan(
-            solved_before=bool(mechanism.cache.warm), kernel=kernel_installed()
+        # once bound, the plan's answer for these loads is known (it reads the structure and
+        # the installation, neither of which changes): the kernel first
+        if self._bound is not None or (
+            self._compiled
+            and Method.COMPILED
+            in self._plan(solved_before=bool(mechanism.cache.warm), kernel=kernel_installed())
         ):
             answer = self._resolve_compiled(vector)
             if answer is not None:

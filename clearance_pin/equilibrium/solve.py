@@ -250,21 +250,25 @@ def linear_plan(
 ) -> tuple[Method, ...]:
     """:func:`.plan.plan_linear` of ``mechanism`` prepared at one configuration (``prepared``)
     with the caller's ``backend``: its structure, whether it has a verified answer, and what is
-    installed."""
-    geometry = prepared.geometry
-    elastic = geometry.stiffness is not None
-    return plan_linear(
-        independent_blocks=backend == "auto"
-        and not elastic
-        and block_structure(geometry, bool(mechanism.loop_joints)) is not None,
-        size=geometry.stack.size,
-        contacts=geometry.stack.count,
-        solved_before=bool(mechanism.cache.warm),
-        backend=backend,
-        kernel=kernel_installed(),
-        clarabel=clarabel_available(),
-        elastic=elastic,
-    )
+    installed (kept per backend, answer and installation on ``prepared``: a re-solve reads it)."""
+    key = (backend, bool(mechanism.cache.warm), kernel_installed())
+    plan: tuple[Method, ...] | None = prepared.plans.get(key)
+    if plan is None:
+        geometry = prepared.geometry
+        elastic = geometry.stiffness is not None
+        plan = prepared.plans[key] = plan_linear(
+            independent_blocks=backend == "auto"
+            and not elastic
+            and block_structure(geometry, bool(mechanism.loop_joints)) is not None,
+            size=geometry.stack.size,
+            contacts=geometry.stack.count,
+            solved_before=key[1],
+            backend=backend,
+            kernel=key[2],
+            clarabel=clarabel_available(),
+            elastic=elastic,
+        )
+    return plan
 
 
 def _singular_position(mechanism: Mechanism, prepared: PreparedGeometry) -> bool:
