@@ -849,12 +849,13 @@ def kkt_residuals(
 def verified_optimum(matrix: Array, offset: Array, starts: Index, is_norm: Mask, objective: Array,
                      y0: Array, lam0: Array, signs0: Array, accept: float, rounds: int,
                      iterations: int, tolerances: Array,
-                     primal: bool = False) -> Optimum:  # fmt: skip
+                     primal: bool | np.bool_) -> Optimum:  # fmt: skip
     """The verified active-set method of :func:`.kkt.active_set_solve` from a guess
     (y0, lambda0, slab sides), then the flat directions, the minimum-norm point along them.
     ``primal`` (the start from the centre): Newton from the least-squares multipliers, steps
     along the boundary (:func:`_step_along_boundary`), and where no step is left the contacts
-    touching there join.
+    touching there join. Its callers pass ``np.bool_``, not a literal True or False: numba
+    compiles this function once, not once per value.
 
     Returns:
         (code, y, multipliers (m,), signs (m,), KKT residuals (stationarity, feasibility,
@@ -1157,14 +1158,14 @@ def solve_cases(params: Array, load_matrix: Array, load_constant: Array, load_ro
         if warm_rounds > 0:
             found, y, lam, signs, kkt, flat = verified_optimum(
                 matrix, offset, starts, is_norm, objective, y_start, lam_start, signs_start,
-                accept, warm_rounds, iterations, tolerances,
+                accept, warm_rounds, iterations, tolerances, np.bool_(False),
             )  # fmt: skip
             used = start
         if found != SOLVED:
             # a far guess's contact set can be one the rounds do not leave: from the centre
             found, y, lam, signs, kkt, flat = verified_optimum(
                 matrix, offset, starts, is_norm, objective, centre, no_force, centre_sides,
-                accept, rounds, iterations, tolerances, True,
+                accept, rounds, iterations, tolerances, np.bool_(True),
             )  # fmt: skip
             used = FROM_CENTRE
         if found != SOLVED:
