@@ -42,7 +42,7 @@ from .model.dimensions import Dimension
 from .model.footprint import DATA_KEPT_UP_TO, check_fits, data_bytes
 from .model.frames import frame_id as find_frame
 from .model.joints import LoopJoint, TreeJoint
-from .model.loads import Gravity, Load, PointForce, Torque
+from .model.loads import Gravity, Load, PointForce, Torque, added_gravity
 from .model.stiffness import stiff_joints
 
 if TYPE_CHECKING:
@@ -342,22 +342,21 @@ class Mechanism:
     def resolve_loads(
         self, loads: Iterable[object] | None = None, gravity: bool | Gravity | None = None
     ) -> tuple[Load, ...]:
-        """The loads of a solve: ``loads`` (default: the model's) plus gravity if switched on."""
+        """The loads of a solve: ``loads`` (default: the model's) plus the gravity the option
+        ``gravity`` adds (:func:`~clearance_pin.model.loads.added_gravity`: one gravity per
+        solve)."""
         checked: list[Load] = []
+        own = 0
         for load in self.loads if loads is None else loads:
-            if not isinstance(load, (PointForce, Torque, Gravity)):
+            if isinstance(load, Gravity):
+                own += 1
+            elif not isinstance(load, (PointForce, Torque)):
                 raise LoadError(repr(load), "expected PointForce, Torque or Gravity")
-            if not isinstance(load, Gravity) and load.link not in self.link_frames:
+            elif load.link not in self.link_frames:
                 raise LoadError(f"on {load.link!r}", self._not_a_link(load.link))
             checked.append(load)
-        chosen = tuple(checked)
-        if gravity is True:
-            gravity = self.gravity or Gravity()
-        elif gravity is None:
-            gravity = self.gravity
-        if gravity:
-            chosen = (*chosen, gravity)
-        return chosen
+        added = added_gravity(own, gravity, self.gravity)
+        return (*checked, added) if added is not None else tuple(checked)
 
     def _not_a_link(self, name: str) -> str:
         """Why ``name`` cannot carry a load: unknown, or a frame (an MJCF site, a URDF frame

@@ -288,3 +288,53 @@ def test_batch_and_check_arguments_are_named(pendulum):
     assert caught.value.argument == "foo"
     signature = inspect.signature(check_equilibrium).parameters
     assert set(CHECK_OPTIONS) == {n for n, p in signature.items() if p.kind is p.KEYWORD_ONLY}
+
+
+def test_one_gravity_per_solve():
+    """A Gravity among the loads stands in for the model's gravity (arm_6r's file switches it
+    on): the drives hold Pinocchio's generalised gravity of that acceleration alone
+    (independent: pinocchio.computeGeneralizedGravity), in a single solve, a batch mixing cases
+    with and without it, and a resolver; beside a gravity option, or twice among the loads, it
+    is refused by name (before, the two added up: a second weight)."""
+    import pinocchio as pin
+
+    arm = cp.load(MODELS / "arm_6r.urdf")
+    tilted = cp.Gravity([3.0, -2.0, -9.0])
+    model = pin.Model(arm.model)
+    model.gravity = pin.Motion(tilted.acceleration, np.zeros(3))
+    weight = pin.computeGeneralizedGravity(model, model.createData(), arm.q_nominal)
+    answer = arm.solve([tilted])
+    for joint in arm.joints:
+        v = model.joints[model.getJointId(joint)].idx_v
+        assert abs(answer.drive_torque(joint) - weight[v]) <= 1e-9 * np.abs(weight).max()
+    push = cp.PointForce("tool", [0.0, 20.0, -5.0])
+    cases = [[push, tilted], [push], [tilted], [push, tilted]]
+    batch = arm.solve_many(cases, progress=False)
+    alone = arm.resolver([push, tilted]).solve([0.0, 20.0, -5.0])
+    for case, item in zip(cases, batch):
+        single = arm.solve(case)
+        for joint in arm.joints:
+            assert np.allclose(item.torsor(joint), single.torsor(joint), rtol=0, atol=1e-15)
+    for joint in arm.joints:
+        assert np.allclose(alone.torsor(joint), batch[0].torsor(joint), rtol=0, atol=1e-15)
+    for option in (True, cp.Gravity(), [0.0, 0.0, -9.81]):
+        with pytest.raises(cp.ArgumentError, match="one gravity per solve") as caught:
+            arm.solve([tilted], gravity=option)
+        assert caught.value.argument == "gravity"
+    with pytest.raises(cp.ArgumentError, match="at most one Gravity") as caught:
+        arm.solve([tilted, cp.Gravity()])
+    assert caught.value.argument == "loads"
+    refused = arm.solve_many(cases, gravity=True, errors="return", progress=False)
+    assert [isinstance(item, cp.ArgumentError) for item in refused] == [True, False, True, True]
+    assert arm.solve([tilted], gravity=False).ok  # adds none: the loads' gravity alone
+
+
+def test_gravity_as_an_acceleration(pendulum):
+    """gravity= takes an acceleration as 3 numbers [m/s^2], as from_model does: the answer of
+    the same Gravity."""
+    given = pendulum.solve(gravity=[0.0, 1.0, -5.0])
+    same = pendulum.solve(gravity=cp.Gravity([0.0, 1.0, -5.0]))
+    for joint in pendulum.joints:
+        assert np.array_equal(given.torsor(joint), same.torsor(joint))
+    with pytest.raises(cp.ArgumentError, match="3 numbers"):
+        pendulum.solve(gravity=[0.0, 1.0])

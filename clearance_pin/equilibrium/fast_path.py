@@ -451,6 +451,8 @@ class FastTerms:
         vectors = uniform_vectors(cases)  # (LoadVectors given as they are: no object read)
         if vectors is None or not len(vectors) or any(type(g) is not Gravity for g in appended):
             return None
+        if appended and any(type(load) is Gravity for load in vectors.template):
+            return None  # the cases' own gravity and an added one: each resolves its loads
         mapped = self.load_map((*vectors.template, *appended))
         if mapped is None:
             return None

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, overload
 import numpy as np
 
 from ..errors import LoadError
-from ..model.loads import Gravity, PointForce, Torque, with_vector
+from ..model.loads import Gravity, PointForce, Torque, added_gravity, with_vector
 from ..numerics import Array, Index, Mask
 
 if TYPE_CHECKING:
@@ -68,15 +68,6 @@ class LoadTable:
     weighed: Index
     masses: Array
     levers: Array
-
-
-def _gravity_of(mechanism: Mechanism, gravity: object) -> Gravity | None:
-    """The gravity a solve adds (as :meth:`Mechanism.resolve_loads` decides it)."""
-    if gravity is True:
-        return mechanism.gravity or Gravity()
-    if gravity is None:
-        return mechanism.gravity
-    return gravity if isinstance(gravity, Gravity) else None
 
 
 KIND = {PointForce: 0, Torque: 1, Gravity: 2}  # any other object: 3, not a load
@@ -212,7 +203,11 @@ def load_table(
         [load.acceleration for load in compress(loads, (kind == 2).tolist())]  # type: ignore[attr-defined]
     ).reshape(-1, 3)
     weight = (acceleration[:, None, :] * masses[None, :, None]).reshape(-1, 3)
-    added = _gravity_of(mechanism, gravity)
+    added = added_gravity(0, gravity, mechanism.gravity)  # type: ignore[arg-type]  # checked
+    # a case with its own Gravity: its single solve decides (it stands in for the model's, or
+    # is refused beside a gravity option); with two, refused there too
+    own = np.bincount(owner[kind == 2], minlength=len(cases))
+    valid[(own > 1) | ((own > 0) & (added is not None))] = False
     n_force, n_torque, n_weight = len(force), len(torque), len(weight)
     return LoadTable(
         count=len(cases),
@@ -254,7 +249,11 @@ def _vector_table(mechanism: Mechanism, cases: LoadVectors, gravity: object) -> 
                 torque=rows.torque if is_force else vectors,
             )
         parts.append(rows)
-    shared = load_table(mechanism, [()], gravity)  # the gravity option and the bodies' masses
+    # the gravity option (none when the template holds a Gravity: it stands in for the model's,
+    # or is refused beside an option) and the bodies' masses
+    own = sum(type(load) is Gravity for load in cases.template)
+    added = added_gravity(own, gravity, mechanism.gravity)  # type: ignore[arg-type]  # checked
+    shared = load_table(mechanism, [()], False if added is None else added)
     return replace(
         shared,
         count=count,

@@ -8,6 +8,7 @@ is expected and what was found; an unknown one names the options there are.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import numbers
 from collections.abc import Iterable, Mapping, Sequence
@@ -15,7 +16,7 @@ from dataclasses import dataclass, fields
 from typing import TypedDict
 
 from ..arguments import is_bool as _is_bool
-from ..errors import ArgumentError
+from ..errors import ArgumentError, ClearancePinError
 from ..model.loads import Gravity
 from .cone_solver import BACKENDS
 
@@ -31,7 +32,7 @@ class SolveKeywords(TypedDict, total=False):
     """The options as keywords (``mechanism.solve(loads, **options)``): see :class:`SolveOptions`."""
 
     exact: bool | str
-    gravity: bool | Gravity | None
+    gravity: bool | Gravity | Sequence[float] | None
     tol: float
     backend: str
     accuracy: float
@@ -49,8 +50,10 @@ class SolveOptions:
             ``"auto"``: the exact model only when the estimated exact - linear difference at an
             output (translation [m], or rotation times the mechanism's length scale) may exceed
             ``accuracy`` [m], or cannot be estimated.
-        gravity: True or a :class:`~clearance_pin.model.loads.Gravity` to add gravity, False to
-            switch it off, None for the model's setting.
+        gravity: True, a :class:`~clearance_pin.model.loads.Gravity` or an acceleration (3
+            numbers [m/s^2]) to add gravity, False to add none, None for the model's setting
+            (:func:`~clearance_pin.model.loads.added_gravity`: a Gravity among the loads
+            stands in for the model's; with True, a Gravity or an acceleration too, refused).
         tol: the optimiser's tolerance (dimensionless, on clearance-scaled unknowns).
         backend: ``"auto"`` (Clarabel when installed, else IPOPT), ``"clarabel"`` or
             ``"ipopt"`` for the small-displacement cone programme; the answer is polished and
@@ -85,6 +88,10 @@ class SolveOptions:
                 unknown[0], f"one of the options {', '.join(NAMES)}", options[unknown[0]], note
             )
         chosen = {**_DEFAULT_VALUES, **options}
+        gravity = chosen["gravity"]
+        if not (gravity is None or _is_bool(gravity) or isinstance(gravity, Gravity)):
+            with contextlib.suppress(ClearancePinError):  # else refused below, by name
+                chosen["gravity"] = Gravity(gravity)  # type: ignore[arg-type]  # 3 numbers
         outputs = chosen["outputs"]
         if isinstance(outputs, Iterable) and not isinstance(outputs, (str, bytes, Mapping)):
             chosen["outputs"] = tuple(outputs)  # an iterator read once, its names checked
@@ -123,7 +130,11 @@ def check_options(
     if not (_is_bool(exact) or (isinstance(exact, str) and exact == "auto")):
         raise ArgumentError("exact", "True, False or 'auto'", exact)
     if not (gravity is None or _is_bool(gravity) or isinstance(gravity, Gravity)):
-        raise ArgumentError("gravity", "True, False, None or a clearance_pin.Gravity", gravity)
+        raise ArgumentError(
+            "gravity",
+            "True, False, None, a clearance_pin.Gravity or an acceleration (3 numbers) [m/s^2]",
+            gravity,
+        )
     for name, value in (("tol", tol), ("accuracy", accuracy)):
         if (
             _is_bool(value)

@@ -108,6 +108,7 @@ class Resolver:
                 f"finite real numbers shaped ({self.size // 3}, 3) or ({self.size},): the loads' "
                 "force and torque vectors [N, N m], a row each, in the order of resolver.loads",
                 values,
+                _why_not(values, self.size),
             )
         largest = float(np.abs(vector).max())
         if largest > self._largest_value or 0.0 < largest < SMALLEST_LOAD:
@@ -268,6 +269,20 @@ def _finite_vector(values: Any, size: int) -> np.ndarray | None:
     if not math.isfinite(sum(vector.tolist())) and not np.isfinite(vector).all():
         return None
     return vector
+
+
+def _why_not(values: Any, size: int) -> str | None:
+    """What :func:`_finite_vector` refused in ``values``: its shape, its kind, or an infinite
+    or NaN entry (an error's note)."""
+    try:
+        raw = np.asarray(values)
+    except (TypeError, ValueError):
+        return "ragged rows"
+    if raw.shape not in ((size,), (size // 3, 3)):
+        return f"shape {raw.shape}"
+    if raw.dtype.kind not in "fiu":
+        return f"entries of kind {raw.dtype}"
+    return "an infinite or NaN entry"
 
 
 __all__ = ["Resolver"]

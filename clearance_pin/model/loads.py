@@ -149,6 +149,37 @@ class Gravity:
 Load = PointForce | Torque | Gravity
 
 
+def added_gravity(
+    own: int, option: bool | Gravity | None, model_gravity: Gravity | None
+) -> Gravity | None:
+    """The gravity a solve adds to its loads, of which ``own`` are Gravity loads: one gravity
+    per solve. ``option`` (a solve's ``gravity=``): True the model's (standard gravity when the
+    model has none), a Gravity that one, False none, None the model's setting
+    (``model_gravity``). A Gravity among the loads stands in for the model's setting; given
+    with True or a Gravity too, or twice among the loads, it is refused: the two would add up,
+    a second weight no mechanism has.
+
+    Raises:
+        ArgumentError: naming ``gravity`` (or ``loads``) and the conflict.
+    """
+    if own > 1:
+        raise ArgumentError("loads", "at most one Gravity", f"{own} Gravity loads")
+    if option is False:
+        return None
+    if own:
+        if option is None:
+            return None
+        raise ArgumentError(
+            "gravity",
+            "no gravity option when the loads hold a Gravity (one gravity per solve: leave "
+            "gravity= out, or the Gravity out of the loads)",
+            option,
+        )
+    if option is True:
+        return model_gravity or Gravity()
+    return model_gravity if option is None else option
+
+
 def with_vector(load: PointForce | Torque, vector: np.ndarray) -> PointForce | Torque:
     """``load`` with its force (PointForce) or torque (Torque) replaced by ``vector`` [N, N m],
     a float array (3,) that the caller has checked is finite (a planner's re-solve: the checks
