@@ -482,7 +482,7 @@ class Mechanism:
         """Many equilibria, warm-started in sequence; see
         :func:`clearance_pin.equilibrium.batch.solve_many` (options: those of :meth:`solve`
         but ``q``; executor, chunks, errors, progress as there)."""
-        from .equilibrium.batch import solve_many
+        from .equilibrium.batch import solve_many, with_refused
 
         chosen = SolveOptions.of(options)
         # every case checked here, before any is solved: an iterator is read into a list first
@@ -491,7 +491,19 @@ class Mechanism:
             loads = list(loads)
         if isinstance(configurations, Iterator):
             configurations = list(configurations)
-        check_solve_many(self, loads, configurations, errors, executor, chunks)
+        refused = check_solve_many(self, loads, configurations, errors, executor, chunks)
+        cases = list(loads) if refused and loads is not None else []
+        poses = None if configurations is None else list(configurations)
+        if refused and (poses is None or len(poses) == len(cases)):
+            # errors="return": cases whose loads double precision does not carry are not solved
+            return with_refused(
+                len(cases),
+                refused,
+                lambda kept: solve_many(
+                    self, [cases[i] for i in kept], None if poses is None else [poses[i] for i in kept],
+                    chosen, executor=executor, chunks=chunks, errors=errors, progress=progress,
+                ),
+            )  # fmt: skip
         return solve_many(
             self, loads, configurations, chosen,
             executor=executor, chunks=chunks, errors=errors, progress=progress,

@@ -259,3 +259,36 @@ def test_resolver_solve_many_refuses_bad_arrays():
         resolver.solve_many(huge)
     with pytest.raises(ArgumentError, match=r"configurations\[1\]"):
         resolver.solve_many(good, configurations=[mechanism.q_nominal, ["a"] * mechanism.model.nq])
+
+
+def test_errors_return_takes_a_bad_row_as_its_case_error():
+    """With errors="return" a NaN row or a load beyond double precision is its case's error and
+    the other cases are solved (before, the whole call was refused); the same answers as the
+    call without those rows, on a payload x pose grid too. errors="raise" still refuses first."""
+    arm = clearance_pin.load(ROOT / "models" / "arm_6r.urdf")
+    resolver = arm.resolver([PointForce("tool", [0.0, 0.0, -50.0])])
+    values = np.array([[0.0, 0.0, -50.0], [np.nan, 0.0, 0.0], [10.0, 0.0, 0.0], [1e200, 0, 0]])
+    batch = resolver.solve_many(values, errors="return", progress=False)
+    assert isinstance(batch[1], ArgumentError) and batch[1].argument == "values[1]"
+    assert isinstance(batch[3], clearance_pin.LoadError) and "values[3]" in str(batch[3])
+    good = resolver.solve_many(values[[0, 2]], progress=False)
+    for joint in arm.joints:
+        torsors = batch.torsors(joint)
+        assert np.isnan(torsors[[1, 3]]).all()
+        assert np.allclose(torsors[[0, 2]], good.torsors(joint), rtol=1e-12, atol=1e-18)
+    poses = [arm.q_nominal, arm.q_nominal + 0.1]
+    grid = resolver.solve_many(values, configurations=poses, errors="return", progress=False)
+    assert [isinstance(item, Exception) for item in grid] == [False, True, False, True] * 2
+    assert np.allclose(grid[6].torsor("elbow"), resolver.solve_many(
+        values[[2]], configurations=poses[1:], progress=False)[0].torsor("elbow"),
+        rtol=1e-12, atol=1e-18)  # fmt: skip
+    with pytest.raises(ArgumentError, match=r"values\[1\]"):
+        resolver.solve_many(values, progress=False)
+    cases = [[PointForce("tool", row)] for row in ([0, 0, -50.0], [1e200, 0, 0], [10.0, 0, 0])]
+    loaded = arm.solve_many(cases, errors="return", progress=False)
+    assert isinstance(loaded[1], clearance_pin.LoadError) and "loads[1]" in str(loaded[1])
+    assert np.allclose(
+        loaded[2].torsor("elbow"), arm.solve(cases[2]).torsor("elbow"), rtol=1e-12, atol=1e-18
+    )
+    with pytest.raises(clearance_pin.LoadError, match=r"loads\[1\]"):
+        arm.solve_many(cases, progress=False)

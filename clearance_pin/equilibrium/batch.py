@@ -9,11 +9,12 @@ each, so warm starts still chain inside a chunk.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import os
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Executor, ThreadPoolExecutor
 from typing import TYPE_CHECKING, Any, overload
 
@@ -415,6 +416,28 @@ def _solve_chunk(
         if progress is not None:
             progress.update()
     return results
+
+
+def with_refused(
+    count: int, refused: Mapping[int, Exception], solve_kept: Callable[[list[int]], Sequence[Item]]
+) -> EquilibriumBatch:
+    """A batch of ``count`` cases whose cases ``refused`` (case -> its error, ``errors="return"``:
+    a load beyond what double precision carries, a NaN value) are not solved: ``solve_kept`` of
+    the other cases (their indices, in order) answers them, each error takes its case's place.
+    Its readers read item by item."""
+    kept = [index for index in range(count) if index not in refused]
+    solved = solve_kept(kept) if kept else []
+    place = {case: position for position, case in enumerate(kept)}
+    return EquilibriumBatch(
+        [
+            refused[index] if index in refused else functools.partial(_item, solved, place[index])
+            for index in range(count)
+        ]
+    )
+
+
+def _item(batch: Sequence[Item], index: int) -> Item:
+    return batch[index]
 
 
 def name_case(error: ClearancePinError, index: int) -> None:

@@ -162,10 +162,12 @@ class Resolver:
         Returns the :class:`~.batch.EquilibriumBatch` of ``Mechanism.solve_many`` (its
         whole-batch readers give arrays: ``frame_displacements``, ``reactions``,
         ``contact_forces``, ``drive_torques``), the same answers as ``solve_many`` of the load
-        objects; ``errors`` and ``progress`` as there. Without ``configurations`` every case is
+        objects; ``errors`` and ``progress`` as there (with ``errors="return"`` a row with an
+        infinite or NaN entry, or beyond what double precision carries, is its cases' error:
+        the others are solved, and the batch is read item by item). Without ``configurations`` every case is
         at the resolver's configuration (its ``q``).
         """
-        from .batch import solve_many
+        from .batch import solve_many, with_refused
 
         if options:  # the resolver's own: given once, to mechanism.resolver(...)
             name = next(iter(options))
@@ -173,28 +175,40 @@ class Resolver:
                 name, "no solve option here: the resolver's options are given to "
                 "mechanism.resolver(loads, ...)", options[name], "unknown argument",
             )  # fmt: skip
-        vectors = self._vectors(values)
+        check_errors(errors)
+        vectors, refused = self._vectors(values, errors == "raise")
         poses = None  # every case at the resolver's own configuration
         if configurations is not None:
             poses = self._poses(configurations)
+            cases = len(vectors)
             vectors = np.tile(vectors, (len(poses), 1))
-            poses = [q for q in poses for _ in range(len(vectors) // len(poses))]
+            poses = [q for q in poses for _ in range(cases)]
+            refused = {i * cases + n: error for i in range(len(poses) // cases)
+                       for n, error in refused.items()}  # fmt: skip
         elif self._q is not None:
             poses = [self._q] * len(vectors)
-        check_errors(errors)
-        return solve_many(
-            self.mechanism,
-            LoadVectors(self.loads, vectors),
-            poses,
-            replace(self.options, gravity=False),  # resolved: the loads carry it
-            errors=errors,
-            progress=progress,
-        )
 
-    def _vectors(self, values: Any) -> np.ndarray:
+        def solved(kept: list[int] | None = None) -> Any:
+            return solve_many(
+                self.mechanism,
+                LoadVectors(self.loads, vectors if kept is None else vectors[kept]),
+                poses if poses is None or kept is None else [poses[i] for i in kept],
+                replace(self.options, gravity=False),  # resolved: the loads carry it
+                errors=errors,
+                progress=progress,
+            )
+
+        if refused:  # errors="return": the rows refused take their cases' places
+            return with_refused(len(vectors), refused, solved)
+        return solved()
+
+    def _vectors(
+        self, values: Any, refuse: bool
+    ) -> tuple[np.ndarray, dict[int, ClearancePinError]]:
         """``values`` as a float array (N, 3 k), checked: finite real numbers, magnitudes
         within double precision (:func:`~clearance_pin.arguments.check_load_magnitudes`, in
-        bulk; the first case beyond the limits named)."""
+        bulk; the first case beyond the limits named); and, unless ``refuse`` (then the first
+        is raised), the error of each row that is not, by row (``errors="return"``)."""
         expected = (
             f"finite real numbers shaped (N, {self.size // 3}, 3) or (N, {self.size}): per case "
             "the loads' force and torque vectors [N, N m], in the order of resolver.loads"
@@ -207,17 +221,26 @@ class Resolver:
         if raw.dtype.kind not in "fiu" or not shaped or len(raw) == 0:
             raise ArgumentError("values", expected, values)
         vectors = raw.astype(float).reshape(len(raw), self.size)
+        refused: dict[int, ClearancePinError] = {}
         finite = np.isfinite(vectors).all(axis=1)
-        if not finite.all():
-            first = int(np.flatnonzero(~finite)[0])
-            raise ArgumentError(
-                f"values[{first}]", expected, vectors[first], "an infinite or NaN entry"
+        for row in np.flatnonzero(~finite).tolist():
+            error = ArgumentError(
+                f"values[{row}]", expected, vectors[row], "an infinite or NaN entry"
             )
-        largest = np.abs(vectors).max(axis=1)
+            if refuse:
+                raise error
+            refused[row] = error
+        with np.errstate(invalid="ignore"):  # NaN rows: refused above
+            largest = np.abs(vectors).max(axis=1)
         beyond = (largest > self._largest_value) | ((largest > 0.0) & (largest < SMALLEST_LOAD))
-        for index in np.flatnonzero(beyond)[:1].tolist():
-            check_load_magnitudes(self._loads_with(vectors[index]), f"values[{index}]")
-        return vectors
+        for row in np.flatnonzero(beyond & finite).tolist():
+            try:
+                check_load_magnitudes(self._loads_with(vectors[row]), f"values[{row}]")
+            except ClearancePinError as error:
+                if refuse:
+                    raise
+                refused[row] = error
+        return vectors, refused
 
     def _poses(self, configurations: Any) -> list[np.ndarray]:
         """``configurations`` as a list of checked configurations q (nq,) (None: the
