@@ -488,16 +488,25 @@ def test_vectorised_kinematics_loads_and_gradients_equal_the_prepared_geometry()
     expected = _pinocchio_placements(arm, trajectory)
     np.testing.assert_allclose(rotations, expected[0], rtol=0, atol=1e-14)
     np.testing.assert_allclose(translations, expected[1], rtol=0, atol=1e-14)
-    table = load_table(arm, cases, None)
-    wrenches, moments = body_wrenches(table, rotations, translations, arm.model.njoints, True)
+    # the model's gravity (None) shared by the table; False: case 2's own Gravity alone
+    for gravity in (None, False):
+        table = load_table(arm, cases, gravity)
+        # with the model's gravity, case 2's own Gravity stands in for it: its single solve
+        assert table.valid.tolist() == [True, True, gravity is False, True, True]
+        wrenches, moments = body_wrenches(table, rotations, translations, arm.model.njoints, True)
+        moved = wrenches.copy()
+        moved[..., 3:] += np.cross(translations, wrenches[..., :3])
+        np.testing.assert_allclose(moved[..., 3:], moments, rtol=1e-13, atol=1e-12)
+        for k, q in enumerate(trajectory):
+            if table.valid[k]:
+                loads = arm.resolve_loads(cases[k], gravity)
+                np.testing.assert_allclose(
+                    moved[k], prepared_geometry(arm, q).wrenches(loads), rtol=1e-13, atol=1e-12
+                )
     gradients = tree_gradients(tree_maps(arm), rotations, translations, wrenches)
-    moved = wrenches.copy()
-    moved[..., 3:] += np.cross(translations, wrenches[..., :3])
-    np.testing.assert_allclose(moved[..., 3:], moments, rtol=1e-13, atol=1e-12)
     for k, q in enumerate(trajectory):
         prepared = prepared_geometry(arm, q)
-        loads = arm.resolve_loads(cases[k])
-        np.testing.assert_allclose(moved[k], prepared.wrenches(loads), rtol=1e-13, atol=1e-12)
+        loads = arm.resolve_loads(cases[k], False)
         problem = prepared.problem(loads)
         reference = problem.gradient
         np.testing.assert_allclose(
