@@ -26,6 +26,7 @@ from .equilibrium.cache import SolveCache
 from .equilibrium.formulation import solve_case
 from .equilibrium.negligible_play import rigid_negligible_plays
 from .equilibrium.options import SolveKeywords, SolveOptions
+from .equilibrium.resolver import solve_by_resolver
 from .equilibrium.result import Equilibrium
 from .errors import (
     ClearancePinError,
@@ -415,6 +416,11 @@ class Mechanism:
         Returns:
             :class:`~clearance_pin.equilibrium.result.Equilibrium`.
         """
+        if q is None and not options and type(loads) in (list, tuple):
+            # a planner's loop: the resolver of these loaded points, from their second solve
+            answer = solve_by_resolver(self, loads)  # type: ignore[arg-type]  # a list or tuple
+            if answer is not None:
+                return answer
         chosen = SolveOptions.of(options)
         configuration = check_case(self, loads, q)
         resolved = self.resolve_loads(loads, chosen.gravity)

@@ -13,7 +13,7 @@ import pytest
 
 import clearance_pin
 from clearance_pin import ArgumentError, Method, PointForce, Torque
-from clearance_pin.equilibrium.resolver import _finite_vector
+from clearance_pin.equilibrium.resolver import Resolver, _finite_vector
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -292,3 +292,27 @@ def test_errors_return_takes_a_bad_row_as_its_case_error():
     )
     with pytest.raises(clearance_pin.LoadError, match=r"loads\[1\]"):
         arm.solve_many(cases, progress=False)
+
+
+def test_mechanism_solve_reuses_a_resolver_of_its_loaded_points():
+    """mechanism.solve(loads) with default options re-solves through a resolver of the loads'
+    links and points from their second solve on (cache.resolvers): the same answers as the
+    general path (any option given takes it), the answer's loads the objects given (then
+    gravity), and the same errors: an unknown link, a load beyond double precision."""
+    arm = clearance_pin.load(ROOT / "models" / "arm_6r.urdf")
+    play = max(joint.clearance.max_play for joint in arm.joints.values())
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        loads = [PointForce("tool", rng.normal(size=3) * 50, [0.0, 0.02, 0.0])]
+        answer = arm.solve(loads)
+        general = arm.solve(loads, tol=1e-12)  # an option given: the general path
+        assert answer.ok and answer.loads[0] is loads[0]
+        assert isinstance(answer.loads[-1], clearance_pin.Gravity)  # the file's gravity
+        for joint in arm.joints:
+            assert np.allclose(answer.torsor(joint), general.torsor(joint), atol=1e-12 * play)
+    assert sum(isinstance(kept, Resolver) for kept in arm.cache.resolvers.values()) == 1
+    for _ in range(3):
+        with pytest.raises(clearance_pin.LoadError, match="unknown link"):
+            arm.solve([PointForce("tol", [0.0, 0.0, -1.0])])
+        with pytest.raises(clearance_pin.LoadError, match="beyond the largest"):
+            arm.solve([PointForce("tool", [1e200, 0.0, 0.0], [0.0, 0.02, 0.0])])

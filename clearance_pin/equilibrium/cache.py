@@ -29,6 +29,7 @@ if TYPE_CHECKING:  # prepared.py imports this module
 
 GEOMETRIES_KEPT = 64  # prepared configurations per mechanism (a trajectory re-visits few)
 LOAD_MAPS_KEPT = 64  # load maps per prepared configuration and per kernel (sets of loaded points)
+RESOLVERS_KEPT = 16  # sets of loaded points Mechanism.solve keeps a resolver for
 BACKENDS_KEPT = 16  # built optimisers per mechanism (one per structure, backend and tol)
 EXACT_PROBLEMS_KEPT = 16  # built exact problems per mechanism (one per structure and tol)
 
@@ -94,6 +95,8 @@ class SolveCache:
             :data:`BACKENDS_KEPT`, least recently used dropped first).
         check_shapes: coal shapes of the geometric check, built once.
         output_points: (loaded points, outputs asked for) -> the output points of a solve.
+        resolvers: loaded points (:func:`.load_map.signature_of`) -> the resolver
+            :meth:`Mechanism.solve` re-solves them by (:func:`.resolver.solve_by_resolver`).
     """
 
     def __init__(self, model: pin.Model):
@@ -116,6 +119,7 @@ class SolveCache:
         self.backends: LeastRecentlyUsed[tuple[Any, ...], Any] = LeastRecentlyUsed(BACKENDS_KEPT)
         self.check_shapes: dict[Any, Any] = {}
         self.output_points: dict[tuple[Any, ...], tuple[Any, ...]] = {}
+        self.resolvers: LeastRecentlyUsed[tuple[Any, ...], Any] = LeastRecentlyUsed(RESOLVERS_KEPT)
 
     @property
     def data(self) -> pin.Data:
@@ -151,6 +155,7 @@ class SolveCache:
 
 __all__ = [
     "LOAD_MAPS_KEPT",
+    "RESOLVERS_KEPT",
     "BACKENDS_KEPT",
     "EXACT_PROBLEMS_KEPT",
     "GEOMETRIES_KEPT",

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -35,6 +36,7 @@ from .blocks import block_structure
 from .cone_solver import clarabel_available
 from .fast_path import BoundLoads, FastTerms, fast_terms, kernel_installed
 from .formulation import solve_case
+from .load_map import signature_of
 from .load_table import LoadVectors
 from .method import Method
 from .options import DEFAULT_OPTIONS, SolveOptions
@@ -113,6 +115,26 @@ class Resolver:
         largest = float(np.abs(vector).max())
         if largest > self._largest_value or 0.0 < largest < SMALLEST_LOAD:
             check_load_magnitudes(self._loads_with(vector), "values")
+        return self._solve(vector, functools.partial(self._loads_with, vector))
+
+    def solve_loads(self, loads: Sequence[PointForce | Torque]) -> Equilibrium:
+        """The equilibrium of ``loads``, load objects at the resolver's loaded points (kinds,
+        links and points in the order of :attr:`loads`, built and checked by their
+        constructors), as :meth:`solve` of their vectors; the answer's ``loads`` are these
+        objects (then gravity, when resolved). :meth:`Mechanism.solve` of default options
+        comes here (:func:`solve_by_resolver`)."""
+        vector = np.concatenate(
+            [load.force if type(load) is PointForce else load.torque for load in loads]  # type: ignore[union-attr]
+        )
+        largest = float(np.abs(vector).max())
+        resolved = (*loads, *self.loads[len(loads) :])
+        if largest > self._largest_value or 0.0 < largest < SMALLEST_LOAD:
+            check_load_magnitudes(resolved)
+        return self._solve(vector, lambda: resolved)
+
+    def _solve(self, vector: np.ndarray, loads_of: Callable[[], tuple[Any, ...]]) -> Equilibrium:
+        """The equilibrium of the loads ``loads_of()`` (built when read), whose force and torque
+        vectors are ``vector`` (3 k,), checked."""
         mechanism, options = self.mechanism, self.options
         # once bound, the plan's answer for these loads is known (it reads the structure and
         # the installation, neither of which changes): the kernel first
@@ -121,15 +143,15 @@ class Resolver:
             and Method.COMPILED
             in self._plan(solved_before=bool(mechanism.cache.warm), kernel=kernel_installed())
         ):
-            answer = self._resolve_compiled(vector)
+            answer = self._resolve_compiled(vector, loads_of)
             if answer is not None:
                 return answer
         try:
             if options.exact:  # the exact model, from the resolved loads
-                return solve_case(mechanism, self._loads_with(vector), self._q, options)
+                return solve_case(mechanism, loads_of(), self._q, options)
             return solve_linear(
                 mechanism,
-                self._loads_with(vector),
+                loads_of(),
                 self._q,
                 options.tol,
                 options.backend,
@@ -251,7 +273,9 @@ class Resolver:
         own = self.mechanism.q_nominal if self._q is None else self._q
         return [np.asarray(own if q is None else q, dtype=float) for q in poses]
 
-    def _resolve_compiled(self, vector: np.ndarray) -> Equilibrium | None:
+    def _resolve_compiled(
+        self, vector: np.ndarray, loads_of: Callable[[], tuple[Any, ...]]
+    ) -> Equilibrium | None:
         """The compiled re-solve (:func:`.solve.resolve_linear`), None when the kernel is not
         engaged or does not verify this load."""
         if self._bound is None:
@@ -264,9 +288,7 @@ class Resolver:
                 return None
             self._bound = (fast, binding[1])
         fast, bound = self._bound
-        return resolve_linear(
-            self.mechanism, fast, bound, vector, lambda: self._loads_with(vector), self._points
-        )
+        return resolve_linear(self.mechanism, fast, bound, vector, loads_of, self._points)
 
     def _loads_with(self, vector: np.ndarray) -> tuple[Any, ...]:
         """:attr:`loads` with the force and torque vectors ``vector`` (3 k,)."""
@@ -294,6 +316,38 @@ def _finite_vector(values: Any, size: int) -> np.ndarray | None:
     return vector
 
 
+def solve_by_resolver(mechanism: Any, loads: Sequence[object]) -> Equilibrium | None:
+    """:meth:`Mechanism.solve` of ``loads`` (a list or tuple) with the default options at the
+    nominal configuration, by the :class:`Resolver` of their loaded points (kinds, links,
+    points), which the mechanism keeps from the second solve of those points on
+    (``cache.resolvers``, the :data:`~.cache.RESOLVERS_KEPT` most recent): a planner's loop that
+    builds its loads gets the resolver's re-solve without asking for it. None when a load is
+    not a PointForce or Torque, on the first solve of those points, or when they cannot make a
+    resolver (the general path then answers, or raises naming the problem)."""
+    signed = signature_of(loads)
+    if signed is None or (None, None) in signed[0]:  # not a load, or a gravity among them
+        return None
+    key = signed[0]
+    kept = mechanism.cache.resolvers
+    resolver = kept.get(key, _UNSEEN)
+    if resolver is _UNSEEN or resolver is None:
+        if resolver is _UNSEEN:  # first seen: the general path; a resolver if seen again
+            kept[key] = None
+            return None
+        try:
+            resolver = Resolver(mechanism, loads)
+        except ClearancePinError:
+            kept[key] = _REFUSED  # the general path raises, naming the problem
+            return None
+        kept[key] = resolver
+    if not isinstance(resolver, Resolver):  # refused
+        return None
+    return resolver.solve_loads(loads)  # type: ignore[arg-type]  # PointForce, Torque only
+
+
+_UNSEEN, _REFUSED = object(), object()
+
+
 def _why_not(values: Any, size: int) -> str | None:
     """What :func:`_finite_vector` refused in ``values``: its shape, its kind, or an infinite
     or NaN entry (an error's note)."""
@@ -308,7 +362,7 @@ def _why_not(values: Any, size: int) -> str | None:
     return "an infinite or NaN entry"
 
 
-__all__ = ["Resolver"]
+__all__ = ["Resolver", "solve_by_resolver"]
 
 
 def _farthest_point(load: Any) -> float:
