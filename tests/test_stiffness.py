@@ -459,6 +459,7 @@ def test_ur5_soft_drives_exact_model_against_pinocchio_fixed_point():
     tool = data.oMf[frame].translation.copy()
     solved = np.array([exact.deflection(name)[3] for name in joints])
     assert solved == pytest.approx(springs, rel=1e-8, abs=1e-14)
+    assert exact.method is cp.Method.EXACT_NEWTON  # nothing touches: Newton on the springs alone
     assert exact.frame_placement("tool0").translation == pytest.approx(tool, abs=1e-10)
     pin.framesForwardKinematics(model, data, placed(np.zeros(6)))
     moved = linear.frame_displacement("tool0").linear

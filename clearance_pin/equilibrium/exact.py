@@ -115,6 +115,7 @@ class ExactProblem:
         deltas, relative, turns, offset = {}, {}, {}, 0
         motions = {}  # per tree joint, its own motion's exp coordinate (a coupling reads it)
         spring_energy = ca.SX(0)
+        springs = 0
         for joint in mechanism.tree_joints:
             basis = tree_joint_basis(joint)
             k = basis.shape[1]
@@ -131,6 +132,7 @@ class ExactProblem:
             if stiffnesses.size:
                 e = x[offset : offset + stiffnesses.size]
                 offset += stiffnesses.size
+                springs += stiffnesses.size
                 spring_energy += 0.5 * ca.dot(ca.DM(stiffnesses), e * e)
                 R_t, p_t = compose((R_t, p_t), se3_exp(ca.mtimes(ca.DM(directions), e)))
             C = ca.DM(joint.rotation)
@@ -147,10 +149,12 @@ class ExactProblem:
             if stiffnesses.size:
                 e = x[offset : offset + stiffnesses.size]
                 offset += stiffnesses.size
+                springs += stiffnesses.size
                 spring_energy += 0.5 * ca.dot(ca.DM(stiffnesses), e * e)
                 unsprung = se3_exp(-ca.mtimes(ca.DM(directions), e))
                 relative[loop.name] = compose(relative[loop.name], unsprung)
 
+        self.springs = springs  # elastic unknowns: the potential has curvature of its own
         energy = spring_energy
         for body in range(1, nbody):
             params = load_params[:, body]
@@ -537,8 +541,8 @@ def polish_exact(
             (np.abs(g[:n_in] - lower[:n_in]) < 1e-6) | (lam[:n_in] < -1e-9 * largest)
         )
     assert at_lower is not None  # given with at_upper
-    if not (np.any(at_upper) or np.any(at_lower)):
-        return None
+    if not (np.any(at_upper) or np.any(at_lower) or exact.springs):
+        return None  # nothing touches and nothing curves the potential: no Newton system
     equalities = np.arange(n_in, lower.size)
     if released is not None:
         gauge_rows = equalities[equalities.size - exact.gauge_count :]
