@@ -22,14 +22,14 @@ import numpy as np
 
 from ..arguments import check_errors
 from ..errors import ArgumentError, CaseIndexError, ClearancePinError, NotFoundError
-from ..model.couplings import coupled, passive
+from ..model.couplings import coupled
 from ..model.frames import frame_id as find_frame
 from ..model.stiffness import stiff_joints
 from ..numerics import Array, Mask
 from ..progress import Progress
 from .batch_answers import StackedAnswers, contact_forces, frame_displacements
 from .batch_newton import batched_newton, stacked_evaluation
-from .batch_reactions import PARTS, stacked_reactions, whole_tree_reaction
+from .batch_reactions import PARTS, stacked_reactions, subtree_statics_hold, whole_tree_reaction
 from .cone_solver import ConeSolution, acceptance
 from .fast_path import WARM_ROUNDS, FastTerms, fast_terms
 from .formulation import solve_with_options
@@ -487,8 +487,8 @@ def solve_many(
     if (
         not exact
         and not mechanism.loop_joints
-        and not passive(mechanism.couplings, mechanism.joints)
-        and stiff_joints(mechanism.joints)
+        and (stiff := stiff_joints(mechanism.joints))
+        and all(subtree_statics_hold(mechanism, joint) for joint in stiff)
     ):
         from .elastic_batch import solve_superposed  # a tree's springs: its rigid twin's batch
 

@@ -95,9 +95,9 @@ def tree_reactions(
     (:func:`.load_table.load_table`), summed per body about the world origin
     (:func:`.load_table.body_wrenches`), then from the leaves to the root. Body placements (K,
     bodies, 3, 3), (K, bodies, 3) [m], K = N (a trajectory) or 1; the cases' loads
-    ``load_column`` (None: the model's) with the solve's ``gravity`` option. A tree without
-    passive couplings only: such a coupling carries torque between its joints, a loop closes
-    through its joint."""
+    ``load_column`` (None: the model's) with the solve's ``gravity`` option. A joint's entry is
+    its reaction where :func:`subtree_statics_hold` (a passive coupling across its subtree
+    carries torque between its joints, a loop closes through its joint)."""
     model = mechanism.model
     table = load_table(mechanism, load_column, gravity)
     wrenches, about = body_wrenches(
@@ -126,10 +126,9 @@ def whole_tree_reaction(answers: StackedAnswers, joint: str, frame: str) -> Arra
     from the statics of its subtree (:func:`tree_reactions`; the same wrench as the contact,
     rigid, drive and held parts summed, without solving for them): ``frame="joint"`` its
     clearance frame about the joint centre, ``"world"`` world axes about the world origin. None
-    for a mechanism with loops or a passive coupling (its leader not driven: the coupling then
-    carries torque between its joints; a driven leader's follower is held as a drive is)."""
+    where the subtree's statics do not give it (:func:`subtree_statics_hold`)."""
     mechanism = answers.mechanism
-    if mechanism.loop_joints or passive(mechanism.couplings, mechanism.joints):
+    if not subtree_statics_hold(mechanism, joint):
         return None
     cached: dict[str, Array] | None = answers.__dict__.get("_tree_reactions")
     if cached is None:
@@ -138,6 +137,30 @@ def whole_tree_reaction(answers: StackedAnswers, joint: str, frame: str) -> Arra
             answers.translations,
         )  # fmt: skip
     return in_frame(mechanism, joint, cached[joint], frame, answers.rotations, answers.translations)
+
+
+def subtree_statics_hold(mechanism: Any, joint: str) -> bool:
+    """Whether the statics of the subtree ``joint`` carries give its whole reaction: a tree (no
+    loop joints) in which no passive coupling (its leader not driven: it carries a torque
+    between its two joints; a driven leader's follower is held as a drive is) has one of its
+    joints in that subtree (``joint`` itself included) and the other outside. A coupling with
+    both inside acts between parts of the subtree: its torques cancel there, as every internal
+    force does (a gripper's coupled fingers under an arm joint)."""
+    if mechanism.loop_joints:
+        return False
+    couplings = passive(mechanism.couplings, mechanism.joints)
+    if not couplings:
+        return True
+    model = mechanism.model
+    root = model.getJointId(joint)
+
+    def inside(name: str) -> bool:
+        index = model.getJointId(name)
+        while index > root:  # a parent's index is below its child's
+            index = model.parents[index]
+        return bool(index == root)
+
+    return all(inside(c.leader) == inside(c.follower) for c in couplings)
 
 
 def in_frame(
@@ -284,6 +307,7 @@ __all__ = [
     "PARTS",
     "StackedReactions",
     "stacked_reactions",
+    "subtree_statics_hold",
     "tree_reactions",
     "whole_tree_reaction",
 ]

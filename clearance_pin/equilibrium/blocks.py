@@ -186,12 +186,16 @@ def _build(geometry: ReducedGeometry) -> BlockStructure | None:
     stack = geometry.stack
     scale = geometry.scale
     n = scale.size
-    if not contacts or np.any(stack.offset != 0.0) or geometry.equalities.size:
-        return None  # closure equations (a passive coupling's) tie the joints: no blocks
+    if not contacts or np.any(stack.offset != 0.0):
+        return None
     rows = np.vstack([c.rows for c in contacts])
     row_bound = np.concatenate([np.full(c.rows.shape[0], c.contact.bound) for c in contacts])
     groups = _groups([np.flatnonzero(np.any(c.rows != 0.0, axis=0)) for c in contacts])
     seen = np.any(rows != 0.0, axis=0)
+    if np.any(geometry.equalities[:, seen] != 0.0):
+        # closure equations (a passive coupling's) tie unknowns that contacts read: no blocks;
+        # one between joints without play (a gripper's coupled fingers) ties free motions only
+        return None
     basis, free = geometry.basis, geometry.free_scaled
     if (
         basis.shape[1] != int(seen.sum())

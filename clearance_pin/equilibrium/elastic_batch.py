@@ -30,7 +30,7 @@ from ..numerics import Array, Mask
 from .batch import EquilibriumBatch
 from .batch_answers import torsor_twists
 from .batch_kinematics import body_placements
-from .batch_reactions import in_frame, tree_reactions
+from .batch_reactions import in_frame, subtree_statics_hold, tree_reactions
 from .elastic_tree import play_twin, spring_deflections, superposed, superposed_status
 from .method import NO_LOAD_STATUS, Method
 from .options import SolveOptions
@@ -69,8 +69,9 @@ def solve_superposed(
 class RigidPlay(EquilibriumBatch):
     """The rigid twin's batch when no joint has play: nothing moves in any case (torsors 0, every
     case verified, energy 0, no contact), each joint's whole reaction the statics of its subtree
-    (:func:`.batch_reactions.tree_reactions`); a case's answer, or a reaction's parts, by a
-    single solve of the twin when read."""
+    (:func:`.batch_reactions.tree_reactions`, where it gives it: :func:`.batch_reactions.
+    subtree_statics_hold`); a case's answer, or a reaction's parts, by a single solve of the
+    twin when read."""
 
     def __init__(self, twin: Mechanism, cases: Cases, options: SolveOptions) -> None:
         from .formulation import solve_with_options
@@ -97,7 +98,7 @@ class RigidPlay(EquilibriumBatch):
     def reactions(self, joint: str, frame: str = "joint", part: str | None = None) -> Array:
         """The whole reaction from the subtree's statics; its parts by single solves."""
         self._check_joint(joint)
-        if part is not None:
+        if part is not None or not subtree_statics_hold(self.twin, joint):
             return super().reactions(joint, frame, part)
         placed = self.__dict__.get("_placed")
         if placed is None:
