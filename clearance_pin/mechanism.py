@@ -497,12 +497,15 @@ class Mechanism:
             loads = list(loads)
         if isinstance(configurations, Iterator):
             configurations = list(configurations)
-        refused = check_solve_many(self, loads, configurations, errors, executor, chunks)
+        refused = check_solve_many(
+            self, loads, configurations, errors, executor, chunks, chosen.gravity
+        )
         cases = list(loads) if refused and loads is not None else []
         poses = None if configurations is None else list(configurations)
         if refused and (poses is None or len(poses) == len(cases)):
             # errors="return": cases whose loads double precision does not carry are not solved
             return with_refused(
+                self,
                 len(cases),
                 refused,
                 lambda kept: solve_many(

@@ -316,3 +316,32 @@ def test_mechanism_solve_reuses_a_resolver_of_its_loaded_points():
             arm.solve([PointForce("tol", [0.0, 0.0, -1.0])])
         with pytest.raises(clearance_pin.LoadError, match="beyond the largest"):
             arm.solve([PointForce("tool", [1e200, 0.0, 0.0], [0.0, 0.02, 0.0])])
+
+
+def test_a_batch_of_refused_cases_still_names_its_joints_and_counts_the_gravity():
+    """From a break-test: a batch whose every case was refused (errors="return") reads as NaN
+    for every driven joint and contact point, and a misspelled joint is still named (it gave
+    {}, () and NaN); a tiny force beside the model's gravity is solved in a batch as alone (the
+    bulk check left the gravity out); NumPy's booleans are gravity options like Python's."""
+    arm = clearance_pin.load(ROOT / "models" / "arm_6r.urdf")
+    resolver = arm.resolver([PointForce("tool", [0.0, 0.0, -50.0])])
+    refused = resolver.solve_many([[np.nan, 0.0, 0.0]], errors="return", progress=False)
+    torques = refused.drive_torques()
+    assert set(torques) == set(arm.joints) and np.isnan(torques["elbow"]).all()
+    assert refused.contact_points("elbow") == tuple(
+        c.point for c in arm.solve().contacts if c.joint == "elbow"
+    )
+    with pytest.raises(clearance_pin.NotFoundError):
+        refused.torsors("elbo")
+    tiny = [[PointForce("tool", [0.0, 0.0, -50.0])], [PointForce("tool", [0.0, 0.0, 1e-200])]]
+    batch = arm.solve_many(tiny, errors="return", progress=False)
+    assert batch[1].ok and np.allclose(
+        batch[1].torsor("elbow"), arm.solve(tiny[1]).torsor("elbow"), rtol=1e-12, atol=1e-18
+    )
+    alone = arm.solve_many(tiny, gravity=False, errors="return", progress=False)
+    assert isinstance(alone[1], clearance_pin.LoadError)  # no gravity: the tiny load alone
+    for flag in (np.True_, np.False_):
+        assert np.array_equal(
+            arm.solve(tiny[0], gravity=flag).torsor("elbow"),
+            arm.solve(tiny[0], gravity=bool(flag)).torsor("elbow"),
+        )

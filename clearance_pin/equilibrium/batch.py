@@ -82,10 +82,14 @@ class EquilibriumBatch(Sequence[Item]):
         items: list[Any],  # of Pending
         arrays: Arrays | None = None,
         build: Callable[[int], Item] | None = None,
+        mechanism: Any = None,
     ) -> None:
+        """``mechanism``: the mechanism solved, which the readers name joints and points of
+        when no case has an answer (else read from the answers)."""
         self._items = items
         self._arrays = arrays
         self._build = build
+        self._owner = mechanism
 
     def __len__(self) -> int:
         return len(self._items)
@@ -112,13 +116,13 @@ class EquilibriumBatch(Sequence[Item]):
         self._items[index] = item
         return item
 
-    def __reduce__(self) -> tuple[type[EquilibriumBatch], tuple[list[Item], Arrays | None]]:
+    def __reduce__(self) -> tuple[type[EquilibriumBatch], tuple[Any, ...]]:
         """Pickled with every item assembled (what assembles one is a closure, which does not
         travel) and the whole-batch arrays: a Dask or process task may return a batch."""
         arrays = self._arrays
         if arrays is not None and "stacked" in arrays:  # the items carry the answers
             arrays = {key: value for key, value in arrays.items() if key != "stacked"}
-        return (EquilibriumBatch, ([self[i] for i in range(len(self))], arrays))
+        return (EquilibriumBatch, ([self[i] for i in range(len(self))], arrays, None, self._owner))
 
     def torsors(self, joint: str) -> np.ndarray:
         """Torsor of ``joint`` for every case, (N, 6) [m, rad] (NaN for failed cases)."""
@@ -127,12 +131,14 @@ class EquilibriumBatch(Sequence[Item]):
             alone = np.flatnonzero(~self._arrays["batched"])  # the cases solved one by one
             values[alone] = self._one_by_one(joint, alone)
             return values
+        self._check_joint(joint)  # (no answer may name it)
         return self._one_by_one(joint, range(len(self)))
 
     def deflections(self, joint: str) -> np.ndarray:
         """Elastic deflection of ``joint`` for every case, (N, 6) [m, rad], clearance frame
         (:meth:`.result.Equilibrium.deflection`: zero for a rigid joint; NaN for failed cases);
         ``torsors(joint) - deflections(joint)`` is its play."""
+        self._check_joint(joint)
         rows = []
         for i in range(len(self)):
             item = self[i]
@@ -255,7 +261,10 @@ class EquilibriumBatch(Sequence[Item]):
         for item in self:
             if not isinstance(item, Exception):
                 return tuple(c.point for c in item.contacts if c.joint == joint)
-        return ()
+        if self._owner is None:
+            return ()
+        contacts = prepared_geometry(self._owner).geometry.contacts  # no answer: the model's
+        return tuple(c.contact.name for c in contacts if c.joint == joint)
 
     def drive_torques(self) -> dict[str, np.ndarray]:
         """Driven joint name -> its drive torque about the joint axis [N m] in every case (N,)
@@ -286,7 +295,7 @@ class EquilibriumBatch(Sequence[Item]):
         for item in self:
             if not isinstance(item, Exception):
                 return item.mechanism
-        return None
+        return self._owner
 
     def _check_joint(self, joint: str) -> None:
         mechanism = self._mechanism()
@@ -419,7 +428,10 @@ def _solve_chunk(
 
 
 def with_refused(
-    count: int, refused: Mapping[int, Exception], solve_kept: Callable[[list[int]], Sequence[Item]]
+    mechanism: Mechanism,
+    count: int,
+    refused: Mapping[int, Exception],
+    solve_kept: Callable[[list[int]], Sequence[Item]],
 ) -> EquilibriumBatch:
     """A batch of ``count`` cases whose cases ``refused`` (case -> its error, ``errors="return"``:
     a load beyond what double precision carries, a NaN value) are not solved: ``solve_kept`` of
@@ -432,7 +444,8 @@ def with_refused(
         [
             refused[index] if index in refused else functools.partial(_item, solved, place[index])
             for index in range(count)
-        ]
+        ],
+        mechanism=mechanism,
     )
 
 
@@ -516,7 +529,7 @@ def solve_many(
             return batch
         results = _solve_chunk(mechanism, cases, options, errors, bar)
         bar.close()
-        return EquilibriumBatch(results)
+        return EquilibriumBatch(results, mechanism=mechanism)
     workers = getattr(executor, "_max_workers", None) or 2
     count = chunks or min(len(cases), 4 * workers)
     if cases.loads is not None:  # cases of one layout travel as an array, not as objects
@@ -574,7 +587,9 @@ def _solve_loads_batched(
     first = _solve_chunk(mechanism, cases[:1], options, errors)[0]
     single = time.perf_counter() - started  # what a case costs outside the batch
     if isinstance(first, Exception) or first.status != "optimal":
-        return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
+        return EquilibriumBatch(
+            _solve_chunk(mechanism, cases, options, errors, bar), mechanism=mechanism
+        )
     prepared = prepared_geometry(mechanism)
     geometry = prepared.geometry
     plan = linear_plan(mechanism, prepared, options.backend)
@@ -587,7 +602,7 @@ def _solve_loads_batched(
     if geometry.basis.shape[1] > BATCH_MAX_SIZE:
         # stacked dense KKT systems cost O(N r^3) memory traffic for little gain at this size
         rest = _solve_chunk(mechanism, cases[1:], options, errors, bar, start=1)
-        return EquilibriumBatch([first, *rest])
+        return EquilibriumBatch([first, *rest], mechanism=mechanism)
     try:
         wrenches = np.array(
             [
@@ -596,7 +611,9 @@ def _solve_loads_batched(
             ]
         )
     except ClearancePinError:
-        return EquilibriumBatch(_solve_chunk(mechanism, cases, options, errors, bar))
+        return EquilibriumBatch(
+            _solve_chunk(mechanism, cases, options, errors, bar), mechanism=mechanism
+        )
     objectives, sigmas, gradients, load_sizes, shares, regular = prepared.objectives(wrenches)
     items: list[Any] = [None] * len(cases)  # of Pending
     items[0] = first
@@ -700,7 +717,7 @@ def _solve_loads_batched(
         )
 
     arrays = {"x": x_all, "batched": batched, "torsor_maps": torsor_maps, "stacked": stacked}
-    return EquilibriumBatch(items, arrays)
+    return EquilibriumBatch(items, arrays, mechanism=mechanism)
 
 
 def _solve_compiled_batch(
@@ -750,6 +767,7 @@ def _solve_compiled_batch(
         items,
         arrays,
         lambda i: _compiled_item(fast, rows[i - 1], (*column[i], *appended), options.outputs),
+        mechanism,
     )
 
 

@@ -26,10 +26,9 @@ class ChainedBatch(EquilibriumBatch):
 
     def __init__(self, parts: list[EquilibriumBatch], mechanism: Any):
         self._parts = parts
-        self._owner = mechanism
         self._starts = list(np.cumsum([0] + [len(part) for part in parts[:-1]]))
         total = sum(len(part) for part in parts)
-        super().__init__([None] * total, None, self._item)
+        super().__init__([None] * total, None, self._item, mechanism)
 
     def _item(self, index: int) -> Any:
         """Case ``index``: its part's item, pointed at the caller's mechanism."""

@@ -88,6 +88,9 @@ class SolveOptions:
                 unknown[0], f"one of the options {', '.join(NAMES)}", options[unknown[0]], note
             )
         chosen = {**_DEFAULT_VALUES, **options}
+        for name in ("exact", "gravity", "warm_start"):  # NumPy's booleans as Python's
+            if _is_bool(chosen[name]):
+                chosen[name] = bool(chosen[name])
         gravity = chosen["gravity"]
         if not (gravity is None or _is_bool(gravity) or isinstance(gravity, Gravity)):
             with contextlib.suppress(ClearancePinError):  # else refused below, by name

@@ -221,7 +221,7 @@ class Resolver:
             )
 
         if refused:  # errors="return": the rows refused take their cases' places
-            return with_refused(len(vectors), refused, solved)
+            return with_refused(self.mechanism, len(vectors), refused, solved)
         return solved()
 
     def _vectors(
