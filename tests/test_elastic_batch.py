@@ -185,21 +185,28 @@ def test_methods_and_statuses_read_as_the_items_say(play):
         assert statuses[i] == batch[i].solver_status
 
 
+def _panda(tmp_path: Path, clearances: str) -> tuple[clearance_pin.Mechanism, ...]:
+    """Two loads of the Panda as shipped (example-robot-data) with the clearance file
+    ``clearances``: one for the batch, one for the single solves it is compared with."""
+    robots = pytest.importorskip("test_corpus_robots")
+    path = robots.vendor_file("panda_description/urdf/panda.urdf")
+    if path is None:
+        pytest.skip("example-robot-data is not installed")
+    written = tmp_path / "panda.toml"
+    written.write_text(clearances)
+    return tuple(clearance_pin.load(path, clearances=written) for _ in range(2))
+
+
 def test_a_vendor_arm_with_locked_mimic_fingers_takes_the_arrays(tmp_path):
     """The Panda as shipped (its second finger mimics the first), the fingers held by [locks],
     a drive stiffness on every arm joint: a driven leader's coupling holds its follower as a
     drive does, so the batch is the springs' on arrays (it went one case at a time), and its
     tool displacements and reactions (a finger's included) are the single solves'."""
-    robots = pytest.importorskip("test_corpus_robots")
-    path = robots.vendor_file("panda_description/urdf/panda.urdf")
-    if path is None:
-        pytest.skip("example-robot-data is not installed")
-    clearances = tmp_path / "panda.toml"
-    clearances.write_text(
+    arm, single = _panda(
+        tmp_path,
         "[defaults.revolute]\ndriven = true\ndrive_stiffness = 2e4\n"
-        "[locks.panda_finger_joint1]\nq = 0.02\n[locks.panda_finger_joint2]\nq = 0.02\n"
+        "[locks.panda_finger_joint1]\nq = 0.02\n[locks.panda_finger_joint2]\nq = 0.02\n",
     )
-    arm, single = (clearance_pin.load(path, clearances=clearances) for _ in range(2))
     assert arm.couplings  # the mimic
     load = PointForce("panda_hand", [0.0, 0.0, -10.0], [0.0, 0.0, 0.1])
     values = np.random.default_rng(6).normal(0.0, 20.0, (40, 1, 3))
@@ -228,16 +235,11 @@ def test_a_vendor_arm_with_free_mimic_fingers_takes_the_closed_forms(tmp_path):
     the springs on arrays (it went one case at a time, 340 cases/s, a tenth through Clarabel).
     Its drive torques are Pinocchio's -J^T F at the tool point (independent), its answers the
     general path's (Clarabel, backend="clarabel"), a finger's reaction the single solve's."""
-    robots = pytest.importorskip("test_corpus_robots")
-    path = robots.vendor_file("panda_description/urdf/panda.urdf")
-    if path is None:
-        pytest.skip("example-robot-data is not installed")
-    clearances = tmp_path / "panda.toml"
-    clearances.write_text(
+    arm, single = _panda(
+        tmp_path,
         'unit = "m"\n[defaults.revolute]\ntype = "revolute"\ndriven = true\n'
-        "drive_stiffness = 2e4\nradial_clearance = 1e-5\naxial_clearance = 5e-6\nlength = 0.03\n"
+        "drive_stiffness = 2e4\nradial_clearance = 1e-5\naxial_clearance = 5e-6\nlength = 0.03\n",
     )
-    arm, single = (clearance_pin.load(path, clearances=clearances) for _ in range(2))
     assert arm.couplings and not arm.joints["panda_finger_joint1"].driven
     load = PointForce("panda_hand", [0.0, 0.0, -10.0], [0.0, 0.0, 0.1])
     values = np.random.default_rng(7).normal(0.0, 20.0, (60, 1, 3))
