@@ -220,13 +220,19 @@ def _fresh_process(script: str, cache_home: Path) -> str:
 
 def test_import_and_a_first_solve_do_not_load_numba(tmp_path):
     """Import and a first solve never load numba (and import loads no SciPy, CasADi, Clarabel or
-    matplotlib: 0.2 s of SciPy at import before); without the kernel's installation record the
-    re-solves go the NumPy way (no counter switches the kernel on: 50 re-solves, one engine)."""
+    matplotlib: 0.2 s of SciPy at import before; nor does a closed form's first solve: asking
+    whether Clarabel is installed imported SciPy's sparse module, 110 ms); without the kernel's
+    installation record the re-solves go the NumPy way (no counter switches the kernel on: 50
+    re-solves, one engine)."""
     script = (
         "import sys, clearance_pin\n"
         "assert 'numba' not in sys.modules\n"
         "heavy = {'scipy', 'casadi', 'clarabel', 'matplotlib'} & set(sys.modules)\n"
         "assert not heavy, f'imported by import clearance_pin: {heavy}'\n"
+        f"arm = clearance_pin.load({str(ROOT / 'models/arm_6r.urdf')!r})\n"
+        "assert arm.solve().method.value == 'closed form'\n"
+        "heavy = {'scipy', 'casadi', 'clarabel', 'numba'} & set(sys.modules)\n"
+        "assert not heavy, f'imported by a closed form first solve: {heavy}'\n"
         f"m = clearance_pin.load({str(ROOT / 'models/four_bar.urdf')!r})\n"
         "first = m.solve()\n"
         "assert 'numba' not in sys.modules, 'numba loaded by a first solve'\n"
