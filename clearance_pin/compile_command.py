@@ -1,8 +1,8 @@
 """``clearance-pin compile``: the compiled kernel ready before the first solve.
 
 The kernel (:mod:`clearance_pin.equilibrium.kernel`, numba) is compiled the first time a machine
-uses it, about a minute on a 2-core machine, and read from numba's on-disk cache afterwards, about
-a second. Run at set-up (``make`` does), this sub-command pays that minute once, so that no
+uses it, about 20 s on a 2-core machine, and read from numba's on-disk cache afterwards, about
+a second. Run at set-up (``make`` does), this sub-command pays that once, so that no
 solve later waits for it; run again, it only loads the cache. It prints one line: the seconds
 taken and where numba's cache is.
 
