@@ -91,18 +91,15 @@ class BlockBatch(EquilibriumBatch):
             return kept
         return item
 
-    def __reduce__(self) -> tuple[Any, ...]:  # the arrays and the assembler travel, not items
+    def __reduce__(self) -> tuple[Any, ...]:
+        """The arrays and the assembler travel, not items; the unknowns x (N, n) not twice:
+        they are the closed forms' where a case was solved by them (NaN elsewhere), formed
+        again where the batch is unpickled (an executor's task returns its batch: 1.6 kB per
+        case of a UR5, 1 kB without the copies)."""
         arrays = self._arrays or {}
         return (
-            BlockBatch,
-            (
-                self._items,
-                arrays["x"],
-                self._closed,
-                self._energies,
-                arrays["torsor_maps"],
-                self._assembler,
-            ),
+            _unpickled,
+            (self._items, self._closed, self._energies, arrays["torsor_maps"], self._assembler),
         )
 
     def _stacked_answers(self) -> StackedAnswers:
@@ -313,6 +310,19 @@ def _finish(
     return BlockBatch(items, x, done, energies, torsor_maps, build)
 
 
+def _unpickled(
+    items: list[Any],
+    closed: Mask,
+    energies: Array,
+    torsor_maps: dict[str, Array],
+    build: Assembler,
+) -> BlockBatch:
+    """A :class:`BlockBatch` from what its ``__reduce__`` sent: x formed as :func:`_finish`
+    forms it (the closed forms' unknowns of the cases they solved, NaN elsewhere)."""
+    x = np.where(closed[:, None], build.closed.x, np.nan)
+    return BlockBatch(items, x, closed, energies, torsor_maps, build)
+
+
 class Assembler:
     """The :class:`~.result.Equilibrium` of closed-form case i from the batch's arrays (``along``:
     at its own configuration, a :class:`~.tree_point.TreePoint` of the nominal geometry).
@@ -369,7 +379,27 @@ class Assembler:
         )
 
     def __getstate__(self) -> dict[str, Any]:
-        return {**self.__dict__, "nominal": None}
+        """Without the nominal geometry and the reduced unknowns y (both formed again where
+        unpickled, by the same computation), the slab sides as bytes when they are all -1, 0 or
+        1 (they are: the side each contact presses)."""
+        closed = self.closed
+        sides = closed.signs.astype(np.int8)
+        if np.array_equal(sides, closed.signs):
+            closed = replace(closed, signs=sides)  # type: ignore[arg-type]  # while pickled
+        return {**self.__dict__, "nominal": None, "y": None, "closed": closed}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        closed = self.closed
+        if closed.signs.dtype != np.float64:
+            self.closed = closed = replace(closed, signs=closed.signs.astype(np.float64))
+        # y as _closed_and_verified forms it, chunk by chunk (the same products, the same bits)
+        self.y = np.concatenate(
+            [
+                reduced_unknowns(self.structure, closed.x[start : start + CHUNK])
+                for start in range(0, max(len(closed.x), 1), CHUNK)
+            ]
+        )
 
     def stacked(self, done: Mask) -> StackedAnswers:
         """The answers of the closed-form cases ``done`` as arrays, for the whole-batch readers:
