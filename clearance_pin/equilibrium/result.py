@@ -276,8 +276,10 @@ class Equilibrium:
     def drive_torque(self, joint: str) -> float:
         """The torque [N m] (force [N] for a prismatic drive) that ``joint``'s drive exerts on the
         child about (along) the joint axis: the drive part of its reaction, or with backlash what
-        its stop holds; 0 for a joint that is not driven. A coupling's follower's is the torque
-        the coupling holds (:meth:`motor_torques` gives it to the leader)."""
+        its stop holds; 0 for a joint that is not driven. It balances the loads: minus their
+        generalised force on the joint (:math:`g(q) - J^T F` for a serial arm, g the weight's).
+        A coupling's follower's is the torque the coupling holds (:meth:`motor_torques` gives it
+        to the leader)."""
         reaction = self.reaction(joint)
         mechanism = cast("Mechanism", self.mechanism)
         component = 0 if getattr(mechanism.joints[joint], "motion_component", None) == 0 else 3
