@@ -501,7 +501,7 @@ class Mechanism:
             self, loads, configurations, errors, executor, chunks, chosen.gravity
         )
         cases = list(loads) if refused and loads is not None else []
-        poses = None if configurations is None else list(configurations)
+        poses = None if configurations is None or not refused else list(configurations)
         if refused and (poses is None or len(poses) == len(cases)):
             # errors="return": cases whose loads double precision does not carry are not solved
             return with_refused(

@@ -42,7 +42,9 @@ def signature_of(loads: Sequence[object]) -> tuple[LoadSignature, Array] | None:
     key: list[tuple[str | None, bytes | None]] = []
     vectors: list[Array] = []
     for load in loads:
-        kind = type(load)
+        kind: type | None = type(load)
+        if kind not in _KINDS:  # a subclass of a load, or not a load
+            kind = next((known for known in _KINDS if isinstance(load, known)), None)
         if kind is PointForce:
             key.append((load.link, load.point.tobytes()))  # type: ignore[attr-defined]
             vectors.append(load.force)  # type: ignore[attr-defined]
@@ -55,6 +57,9 @@ def signature_of(loads: Sequence[object]) -> tuple[LoadSignature, Array] | None:
         else:
             return None
     return tuple(key), (np.concatenate(vectors) if vectors else np.zeros(0))
+
+
+_KINDS = (PointForce, Torque, Gravity)
 
 
 @dataclass(frozen=True)
@@ -90,9 +95,9 @@ def build_load_map(
     units: list[object] = []
     for load in loads:
         for axis in np.eye(3):
-            if type(load) is PointForce:
+            if isinstance(load, PointForce):
                 units.append(PointForce(load.link, axis, load.point))
-            elif type(load) is Torque:
+            elif isinstance(load, Torque):
                 units.append(Torque(load.link, axis))
             else:
                 units.append(Gravity(axis))
@@ -104,7 +109,7 @@ def build_load_map(
         centred, about = body_wrenches(table, rotations[None], translations[None], bodies, False)
         world[..., :3] = centred[..., :3]
         world[..., 3:] = about
-    gravity = np.repeat(np.array([type(load) is Gravity for load in loads], dtype=bool), 3)
+    gravity = np.repeat(np.array([isinstance(load, Gravity) for load in loads], dtype=bool), 3)
     count = int((~gravity).sum())
     first = not gravity[:count].any()  # forces and torques first, then gravities
     return LoadMap(

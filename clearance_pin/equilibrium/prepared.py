@@ -27,6 +27,7 @@ import pinocchio as pin
 
 from ..errors import LoadError
 from ..model.couplings import passive
+from ..model.loads import Gravity, PointForce, Torque
 from ..numerics import Array, Mask, column_space, null_space
 from .cache import LOAD_MAPS_KEPT, LeastRecentlyUsed, SolveCache
 from .kkt import UNLOADED
@@ -147,7 +148,10 @@ class PreparedGeometry:
         row 0): W = A p (:mod:`.load_map`)."""
         mapped = self.load_map(loads)
         if mapped is None:
-            raise LoadError("loads", "PointForce, Torque and Gravity loads only")
+            other = next(
+                load for load in loads if not isinstance(load, (PointForce, Torque, Gravity))
+            )
+            raise LoadError(repr(other), "expected PointForce, Torque or Gravity")
         built, _, vectors = mapped
         return (built.world @ vectors).reshape(self.bodies, 6)
 
