@@ -63,3 +63,20 @@ def test_wrenches_equal_pinocchio_statics_of_the_same_loads():
             got = prepared.wrenches(loads)
             assert np.allclose(got, expected, rtol=0, atol=1e-13 * np.abs(expected).max())
         assert len(prepared._load_maps) == 1  # private: the one map of this signature
+
+
+def test_a_subclass_of_a_load_is_read_as_its_load():
+    """A user's subclass of PointForce is read as a PointForce by every engine (the load map's
+    signature, the batch's table, the resolver's lane): the same torsors as the plain load."""
+
+    class ToolForce(cp.PointForce):
+        pass
+
+    arm = cp.load(MODELS / "arm_6r.urdf")
+    plain = arm.solve([cp.PointForce("tool", [0.0, 10.0, -50.0], [0.0, 0.02, 0.0])])
+    for _ in range(3):  # the third through the resolver of these loaded points
+        given = arm.solve([ToolForce("tool", [0.0, 10.0, -50.0], [0.0, 0.02, 0.0])])
+    batch = arm.solve_many([[ToolForce("tool", [0.0, 10.0, -50.0], [0.0, 0.02, 0.0])]] * 3)
+    for joint in arm.joints:
+        assert np.allclose(given.torsor(joint), plain.torsor(joint), rtol=1e-12, atol=1e-18)
+        assert np.allclose(batch.torsors(joint), plain.torsor(joint), rtol=1e-12, atol=1e-18)

@@ -124,7 +124,7 @@ class Resolver:
         objects (then gravity, when resolved). :meth:`Mechanism.solve` of default options
         comes here (:func:`solve_by_resolver`)."""
         vector = np.concatenate(
-            [load.force if type(load) is PointForce else load.torque for load in loads]  # type: ignore[union-attr]
+            [load.force if isinstance(load, PointForce) else load.torque for load in loads]
         )
         largest = float(np.abs(vector).max())
         resolved = (*loads, *self.loads[len(loads) :])
