@@ -120,10 +120,13 @@ class Residuals(Mapping[str, float]):
         return {f.name: v for f in fields(self) if (v := getattr(self, f.name)) is not None}
 
     def __getitem__(self, name: str) -> float:
-        value = self._measured().get(name)
+        value = getattr(self, name, None) if name in _FIELDS else None  # (not every field's dict)
         if value is None:
             raise NotFoundError("residual", name, tuple(self._measured()))
-        return value
+        return float(value)
+
+    def __contains__(self, name: object) -> bool:
+        return name in _FIELDS and getattr(self, name) is not None
 
     def __iter__(self) -> Iterator[str]:
         return iter(self._measured())
@@ -131,6 +134,8 @@ class Residuals(Mapping[str, float]):
     def __len__(self) -> int:
         return len(self._measured())
 
+
+_FIELDS = frozenset(field.name for field in fields(Residuals))
 
 __all__ = [
     "DUAL_TOLERANCE",
