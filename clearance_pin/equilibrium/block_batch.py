@@ -14,7 +14,6 @@ that cannot be read) is solved alone by :meth:`Mechanism.solve`, in order.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import fields, replace
 from typing import TYPE_CHECKING, Any, cast
 
@@ -67,12 +66,14 @@ class BlockBatch(EquilibriumBatch):
     def __init__(
         self,
         items: list[Any],
-        x: Array,
         closed: Mask,
         energies: Array,
         torsor_maps: dict[str, Array],
-        build: Callable[[int], Equilibrium],
+        build: Assembler,
     ):
+        """``closed``: the cases the closed forms solved; the unknowns x (N, n) are theirs
+        (``build.closed.x``) there, NaN elsewhere."""
+        x = np.where(closed[:, None], build.closed.x, np.nan)
         super().__init__(items, {"x": x, "batched": closed, "torsor_maps": torsor_maps}, build)
         self._closed = closed
         self._energies = energies
@@ -92,13 +93,12 @@ class BlockBatch(EquilibriumBatch):
         return item
 
     def __reduce__(self) -> tuple[Any, ...]:
-        """The arrays and the assembler travel, not items; the unknowns x (N, n) not twice:
-        they are the closed forms' where a case was solved by them (NaN elsewhere), formed
-        again where the batch is unpickled (an executor's task returns its batch: 1.6 kB per
-        case of a UR5, 1 kB without the copies)."""
+        """The arrays and the assembler travel, not items; not the unknowns x (N, n): they are
+        the closed forms', formed again where the batch is unpickled (an executor's task
+        returns its batch: 1.6 kB per case of a UR5 with them, 1 kB without)."""
         arrays = self._arrays or {}
         return (
-            _unpickled,
+            BlockBatch,
             (self._items, self._closed, self._energies, arrays["torsor_maps"], self._assembler),
         )
 
@@ -106,9 +106,7 @@ class BlockBatch(EquilibriumBatch):
         """The closed-form cases' answers as arrays (:mod:`.batch_answers`), made on first read."""
         answers = self.__dict__.get("_answers")
         if answers is None:
-            answers = self.__dict__["_answers"] = cast(Assembler, self._assembler).stacked(
-                self._closed
-            )
+            answers = self.__dict__["_answers"] = self._assembler.stacked(self._closed)
         return cast(StackedAnswers, answers)
 
     @property
@@ -303,24 +301,10 @@ def _finish(
                 raise
             items[i] = exc
         progress.update()
-    x = np.where(done[:, None], closed.x, np.nan)
     energies = np.where(done, np.einsum("ni,ni->n", terms.gradients, closed.x), np.nan)
     torsor_maps = {name: nominal.maps.joint_torsor[name] for name in mechanism.joints}
     build = Assembler(mechanism, options, nominal, structure, terms, closed, y, table, cases, along)
-    return BlockBatch(items, x, done, energies, torsor_maps, build)
-
-
-def _unpickled(
-    items: list[Any],
-    closed: Mask,
-    energies: Array,
-    torsor_maps: dict[str, Array],
-    build: Assembler,
-) -> BlockBatch:
-    """A :class:`BlockBatch` from what its ``__reduce__`` sent: x formed as :func:`_finish`
-    forms it (the closed forms' unknowns of the cases they solved, NaN elsewhere)."""
-    x = np.where(closed[:, None], build.closed.x, np.nan)
-    return BlockBatch(items, x, closed, energies, torsor_maps, build)
+    return BlockBatch(items, done, energies, torsor_maps, build)
 
 
 class Assembler:

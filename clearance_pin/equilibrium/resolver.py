@@ -117,15 +117,18 @@ class Resolver:
             check_load_magnitudes(self._loads_with(vector), "values")
         return self._solve(vector, functools.partial(self._loads_with, vector))
 
-    def solve_loads(self, loads: Sequence[PointForce | Torque]) -> Equilibrium:
+    def solve_loads(
+        self, loads: Sequence[PointForce | Torque], vector: np.ndarray | None = None
+    ) -> Equilibrium:
         """The equilibrium of ``loads``, load objects at the resolver's loaded points (kinds,
         links and points in the order of :attr:`loads`, built and checked by their
-        constructors), as :meth:`solve` of their vectors; the answer's ``loads`` are these
-        objects (then gravity, when resolved). :meth:`Mechanism.solve` of default options
-        comes here (:func:`solve_by_resolver`)."""
-        vector = np.concatenate(
-            [load.force if isinstance(load, PointForce) else load.torque for load in loads]
-        )
+        constructors), as :meth:`solve` of their vectors (``vector`` (3 k,) when the caller has
+        stacked them); the answer's ``loads`` are these objects (then gravity, when resolved).
+        :meth:`Mechanism.solve` of default options comes here (:func:`solve_by_resolver`)."""
+        if vector is None:
+            vector = np.concatenate(
+                [load.force if isinstance(load, PointForce) else load.torque for load in loads]
+            )
         largest = float(np.abs(vector).max())
         resolved = (*loads, *self.loads[len(loads) :])
         if largest > self._largest_value or 0.0 < largest < SMALLEST_LOAD:
@@ -327,7 +330,7 @@ def solve_by_resolver(mechanism: Any, loads: Sequence[object]) -> Equilibrium | 
     signed = signature_of(loads)
     if signed is None or (None, None) in signed[0]:  # not a load, or a gravity among them
         return None
-    key = signed[0]
+    key, vector = signed  # (forces and torques only: their stacked vectors)
     kept = mechanism.cache.resolvers
     resolver = kept.get(key, _UNSEEN)
     if resolver is _UNSEEN or resolver is None:
@@ -342,7 +345,7 @@ def solve_by_resolver(mechanism: Any, loads: Sequence[object]) -> Equilibrium | 
         kept[key] = resolver
     if not isinstance(resolver, Resolver):  # refused
         return None
-    return resolver.solve_loads(loads)  # type: ignore[arg-type]  # PointForce, Torque only
+    return resolver.solve_loads(loads, vector)  # type: ignore[arg-type]  # PointForce, Torque
 
 
 _UNSEEN, _REFUSED = object(), object()
