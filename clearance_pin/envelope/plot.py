@@ -67,7 +67,9 @@ def plot_envelope(envelope: Envelope, path: str | Path, level: int = 3) -> Path:
             title += f"\nunbounded (free motion) along {free}"
         ax.set_title(title, fontsize=10)
     fig.suptitle(
-        f"clearance envelope of {envelope.output.name!r} ({envelope.mechanism_name})", fontsize=12
+        f"clearance envelope of {envelope.output.name!r} ({envelope.mechanism_name}): how far it "
+        "can move inside the play, whatever the load; world axes, from its nominal place",
+        fontsize=12,
     )
     fig.tight_layout()
     target = Path(path)
@@ -147,9 +149,9 @@ def _surface(ax: Any, envelope: Envelope, kind: str, factor: float, unit: str, l
     for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
         setter(-span, span)
     ax.set_box_aspect((1.0, 1.0, 1.0))
-    ax.set_xlabel(f"x [{unit}]")
-    ax.set_ylabel(f"y [{unit}]")
-    ax.set_zlabel(f"z [{unit}]")
+    ax.set_xlabel(f"world x [{unit}]")
+    ax.set_ylabel(f"world y [{unit}]")
+    ax.set_zlabel(f"world z [{unit}]")
 
 
 def _axis_name(direction: Any) -> str:
@@ -157,5 +159,5 @@ def _axis_name(direction: Any) -> str:
     d = np.asarray(direction, dtype=float)
     i = int(np.argmax(np.abs(d)))
     if abs(abs(d[i]) - 1.0) < 1e-9:
-        return f"{'+' if d[i] > 0 else '-'}{'xyz'[i]}"
-    return "(" + ", ".join(f"{v:+.2f}" for v in d) + ")"
+        return f"world {'+' if d[i] > 0 else '-'}{'xyz'[i]}"
+    return "world (" + ", ".join(f"{v:+.2f}" for v in d) + ")"

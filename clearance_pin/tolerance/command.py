@@ -347,7 +347,7 @@ def _table(mechanism: Mechanism, result: Sweep, maxima: Maxima, budget: Budget |
         lines.append(
             f"Monte Carlo: {result.uniform[0].samples} samples per position and law, loops "
             "closed exactly for each (uniform: inside the worst case; normal with sigma "
-            "= T/6: 3 s against the RSS band)"
+            "= T/6: three times the samples' standard deviation (3 s) against the RSS band)"
         )
     return "\n".join(lines)
 

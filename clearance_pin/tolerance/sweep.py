@@ -657,6 +657,7 @@ def plot_sweep(
                            label="spec limit" if sign > 0 else None)  # fmt: skip
         if histograms:
             _histogram(axes[i, 1], result, i, factor, unit, limit)
+            axes[i, 1].set_ylabel(f"d{output.name} [{unit}]")
         ax.fill_between(
             phi,
             -factor * result.worst[:, i],
@@ -681,7 +682,7 @@ def plot_sweep(
                 )
         if result.normal:
             three = factor * np.array([r.three_sigma[i] for r in result.normal])
-            ax.plot(phi, three, "x", color="tab:red", ms=4, label="Monte Carlo 3 s (normal)")
+            ax.plot(phi, three, "x", color="tab:red", ms=4, label="Monte Carlo 3 sigma (normal)")
             ax.plot(phi, -three, "x", color="tab:red", ms=4)
         if result.exact:
             ax.plot(
@@ -727,7 +728,7 @@ def plot_sweep(
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # the legends below the panels included
     plt.close(fig)
 
 
@@ -761,5 +762,4 @@ def _histogram(ax: Any, result: Sweep, index: int, factor: float, unit: str,
         title += f"\n{100 * run.beyond[index] / run.samples:.3g} % out of spec"
     ax.set_title(title, fontsize=8)
     ax.set_xlabel("samples")
-    ax.set_ylabel(f"[{unit}]")
     ax.grid(True, alpha=0.3)
