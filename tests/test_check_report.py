@@ -101,3 +101,15 @@ def test_one_sided_tolerance():
     assert reading(1e-5 + 5e-9, 1e-5, False).verdict == "ok"
     assert reading(1e-5 - 5e-9, 1e-5, False).verdict == "gap mismatch"
     assert "^ one-sided" in _report(reading(5e-9)).table()
+
+
+def test_the_table_keeps_its_columns_apart_on_long_joint_names():
+    """A vendor's long joint name (40 characters) widens its column: every row keeps two spaces
+    between its cells (the label ran into the method before), and the columns line up."""
+    name = "left_arm_shoulder_pitch_joint_with_encoder"
+    reading = PointCheck(name, "end+", "cylinder", 1e-4, 0.0, 1e-15, True, TOL, True)
+    joint = JointCheck(name, "cylindrical", (reading,))
+    report = CheckReport("exact", {name: joint}, 1e-4, 1e-6, 0.0, 1, 1e-12)
+    header, row = report.table().splitlines()[1:3]
+    assert row.startswith(f"{name}:end+  ")
+    assert header.index("method") + len("method") == row.index("cylinder") + len("cylinder")

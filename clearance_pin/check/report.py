@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..equilibrium.report import columns
 from ..errors import ArgumentError
 from .accuracy import Tolerance
 
@@ -236,22 +237,28 @@ class CheckReport:
 
     def table(self, length: float = 1e6, unit: str = "um") -> str:
         """A readable table: one row per reading, the tolerance term by term, failures listed."""
-        lines = [self.summary(length, unit)]
-        lines.append(
-            f"{'reading':<24}{'method':<15}{'pred.':<8}{'model gap':>13}{'coal':>13}"
-            f"{'deviation':>13}{'tolerance':>12}  = facets + rim + solver + coal  [{unit}]  verdict"
-        )
+        header = ["reading", "method", "pred.", "model gap", "coal", "deviation", "tolerance",
+                  f"= facets + rim + solver + coal [{unit}]", "verdict"]  # fmt: skip
+        rows = []
         for joint in self.joints.values():
             for r in joint.readings:
                 t = r.tolerance
-                lines.append(
-                    f"{r.label:<24}{r.method:<15}{'contact' if r.contact else 'free':<8}"
-                    f"{r.model_gap * length + 0.0:>13.6g}{r.distance * length + 0.0:>13.6g}"
-                    f"{r.deviation * length + 0.0:>13.4g}{t.total * length:>11.3g}"
-                    f"{'^' if t.one_sided else ' '}  = "
-                    f"{t.faceting * length:.2g} + {t.rim * length:.2g} + "
-                    f"{t.solver * length:.2g} + {t.coal * length:.2g}  {r.verdict}"
+                rows.append(
+                    [
+                        r.label,
+                        r.method,
+                        "contact" if r.contact else "free",
+                        f"{r.model_gap * length + 0.0:.6g}",
+                        f"{r.distance * length + 0.0:.6g}",
+                        f"{r.deviation * length + 0.0:.4g}",
+                        f"{t.total * length:.3g}{'^' if t.one_sided else ' '}",
+                        f"= {t.faceting * length:.2g} + {t.rim * length:.2g} + "
+                        f"{t.solver * length:.2g} + {t.coal * length:.2g}",
+                        r.verdict,
+                    ]
                 )
+        # every column as wide as its widest cell: long joint names never run into the next
+        lines = [self.summary(length, unit), *columns(header, rows)]
         lines.extend(r.message(length, unit) for r in self.failures)
         if any(r.tolerance.one_sided for j in self.joints.values() for r in j.readings):
             lines.append(
