@@ -62,7 +62,9 @@ _LAZY = {
 def __getattr__(name: str) -> object:
     """Import the CasADi modules on first use: Pinocchio-only callers (loop closure) skip CasADi."""
     if name in _LAZY:
-        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value  # once imported, a plain attribute (the API reference reads it)
+        return value
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

@@ -62,6 +62,7 @@ from .tape import (
     _Tape,
     _transpose,
     _vadd,
+    _Var,  # noqa: F401  (the Entry alias names it: read by the API reference here)
     _vsub,
 )
 
