@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ClearancePinError, NearSingularError, SolverError
+from ..errors import ClearancePinError, NearSingularError, SolverError, UnsupportedError
+from ..model.stiffness import turned_stiffness, turning
 from .options import SolveOptions
 from .outputs import resolve_outputs
 from .result import Equilibrium
@@ -48,6 +49,25 @@ def solve_with_options(mechanism: Any, loads: Any, q: Any, options: SolveOptions
     return solve_case(mechanism, resolved, configuration, options)
 
 
+def _refuse_turned_stiffness(mechanism: Any, linear: Equilibrium) -> None:
+    """The exact model has each spring's directions fixed in the part's frame: a K stated in the
+    housing's frame, not symmetric about the axis, at a joint that has turned is refused there
+    (the small-displacement model turns it, :func:`~clearance_pin.model.stiffness.elastic_at`)."""
+    joints = turning(mechanism.tree_joints)
+    if not joints:
+        return
+    placed = linear.configuration.oMi  # type: ignore[attr-defined]
+    turned = turned_stiffness(joints, mechanism.model, placed)
+    if turned:
+        raise UnsupportedError(
+            f"joint {turned[0]!r}: its stiffness matrix is stated in the housing's frame "
+            "(stiffness_frame, default housing) and is not symmetric about the joint's axis, "
+            "and the joint has turned at this configuration: the exact model does not turn K "
+            "yet. Solve the small-displacement model (exact=False), or state K in the part's "
+            'frame (stiffness_frame="part")'
+        )
+
+
 def _formulated(
     mechanism: Any, resolved: Any, q: np.ndarray | None, options: SolveOptions
 ) -> Equilibrium:
@@ -68,6 +88,8 @@ def _formulated(
             "solved from the nominal position"
         )
         return replace(result, note=f"{note}; {result.note}" if result.note else note)
+    if exact:
+        _refuse_turned_stiffness(mechanism, linear)
     if exact == "auto":
         estimate = estimate_difference(linear, resolved, q, points)
         error = max(estimate.translation_m, estimate.rotation_rad * mechanism.length_scale())
