@@ -484,7 +484,9 @@ class _BlockReader:
                     )
                 self.nominal_given[joint_id] = value
                 set_nominal(self.source, label, model, joint_id, q, value)
-            joints.append(TreeJoint(name, joint_id, clearance, rotation_x_to(axis), motion, driven))
+            locked = name in self.locked
+            axes = rotation_x_to(axis)
+            joints.append(TreeJoint(name, joint_id, clearance, axes, motion, driven, locked))
         self.couplings = tuple(
             c.absolute(model, drawn_configuration(model)) for c in self.joints.couplings
         )
