@@ -24,7 +24,9 @@ the case.
 
 from __future__ import annotations
 
+import math
 import warnings
+import weakref
 from collections.abc import Iterable
 from typing import Any
 
@@ -49,12 +51,11 @@ def largest_deflections(
             stiffness; NaN rows (failed cases) are skipped.
     """
     found = []
-    scale = float(mechanism.length_scale())
     for name, given in deflections:
         rows = np.atleast_2d(np.asarray(given, dtype=float))
         if not rows.size:
             continue
-        size = part_size(mechanism, mechanism.joints[name]) or scale
+        size = _sizes(mechanism)[name]
         turns = np.linalg.norm(rows[:, 3:], axis=1)
         moves = np.linalg.norm(rows[:, :3], axis=1)
         for values, limit, what in (
@@ -75,6 +76,23 @@ def largest_deflections(
             found.append((value / limit, name, text, case))
     found.sort(key=lambda item: -item[0])
     return found
+
+
+_SIZES: weakref.WeakKeyDictionary[Any, dict[str, float]] = weakref.WeakKeyDictionary()
+
+
+def _sizes(mechanism: Any) -> dict[str, float]:
+    """Per joint with stiffness, its part's size [m] (the length scale when it has none), read
+    once per mechanism (a re-solve's check is then a few norms)."""
+    sizes = _SIZES.get(mechanism)
+    if sizes is None:
+        scale = float(mechanism.length_scale())
+        sizes = _SIZES[mechanism] = {
+            name: part_size(mechanism, joint) or scale
+            for name, joint in mechanism.joints.items()
+            if joint.clearance.stiffness is not None
+        }
+    return sizes
 
 
 def warn_large_deflections(
@@ -104,10 +122,22 @@ def warn_large_deflections(
     )
 
 
-def answer_deflections(mechanism: Any, answer: Any) -> list[tuple[str, np.ndarray]]:
-    """(joint, its deflection (1, 6)) of every joint of ``answer`` (an Equilibrium) that has
-    one."""
-    return [(name, value[None, :]) for name, value in (answer.deflections or {}).items()]
+def warn_answer(mechanism: Any, answer: Any, stacklevel: int = 2) -> None:
+    """:func:`warn_large_deflections` of one answer (an Equilibrium): its springs judged at
+    once, the message built only when one is beyond the limits (a re-solve's check is then a
+    few norms)."""
+    found = answer.deflections
+    if not found:
+        return
+    sizes = _sizes(mechanism)
+    for name, value in found.items():
+        u, v, w, a, b, c = value.tolist()
+        if math.hypot(a, b, c) > ROTATION_LIMIT or math.hypot(u, v, w) > (
+            LENGTH_FRACTION * sizes[name]
+        ):
+            rows = [(joint, deflection[None, :]) for joint, deflection in found.items()]
+            warn_large_deflections(mechanism, rows, stacklevel=stacklevel + 1)
+            return
 
 
 def batch_deflections(mechanism: Any, batch: Any) -> list[tuple[str, np.ndarray]]:
@@ -123,8 +153,8 @@ def batch_deflections(mechanism: Any, batch: Any) -> list[tuple[str, np.ndarray]
 __all__ = [
     "LENGTH_FRACTION",
     "ROTATION_LIMIT",
-    "answer_deflections",
     "batch_deflections",
     "largest_deflections",
+    "warn_answer",
     "warn_large_deflections",
 ]

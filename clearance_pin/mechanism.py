@@ -22,7 +22,7 @@ from .arguments import (
     check_load_magnitudes,
     check_solve_many,
 )
-from .deflection_check import answer_deflections, batch_deflections, warn_large_deflections
+from .deflection_check import batch_deflections, warn_answer, warn_large_deflections
 from .equilibrium.cache import SolveCache
 from .equilibrium.formulation import solve_case
 from .equilibrium.negligible_play import rigid_negligible_plays
@@ -455,7 +455,7 @@ class Mechanism:
             answer = solve_by_resolver(self, loads)  # type: ignore[arg-type]  # a list or tuple
             if answer is not None:
                 if answer.deflections:
-                    warn_large_deflections(self, answer_deflections(self, answer))
+                    warn_answer(self, answer)
                 return answer
         chosen = SolveOptions.of(options)
         configuration = check_case(self, loads, q)
@@ -465,7 +465,7 @@ class Mechanism:
         check_load_magnitudes(resolved)
         answer = solve_case(self, resolved, configuration, chosen)
         if answer.deflections:  # a spring of the wrong unit: judged after the solve
-            warn_large_deflections(self, answer_deflections(self, answer))
+            warn_answer(self, answer)
         return answer
 
     def envelope(

@@ -77,7 +77,7 @@ def test_a_drive_stiffness_typed_in_kn_m_per_rad_warns_after_the_solve(tmp_path)
     assert turn > 0.1
     with pytest.warns(SuspectValueWarning) as caught:
         answer = mechanism.solve([PointForce("tool0", FORCE, [0, 0, 0])], gravity=False)
-    assert len(caught) == 1
+    assert len(caught) == 1 and caught[0].filename == __file__  # the caller's line
     message = str(caught[0].message)
     assert f"joint {name!r}" in message and "drive_stiffness=4e4" in message
     found = float(re.search(r"deflects by ([0-9.e+-]+) rad", message).group(1))
@@ -102,7 +102,7 @@ def test_a_batch_warns_once_naming_the_case(tmp_path):
     cases = [[PointForce("tool0", FORCE * s, [0, 0, 0])] for s in (0.5, 2.0, 1.0)]
     with pytest.warns(SuspectValueWarning) as caught:
         batch = mechanism.solve_many(cases, gravity=False)
-    assert len(caught) == 1
+    assert len(caught) == 1 and caught[0].filename == __file__
     message = str(caught[0].message)
     torques = drive_turns(mechanism)
     name = mechanism.model.names[int(np.argmax(np.abs(torques))) + 1]
@@ -112,6 +112,18 @@ def test_a_batch_warns_once_naming_the_case(tmp_path):
     found = float(re.search(r"deflects by ([0-9.e+-]+) rad", message).group(1))
     assert found == pytest.approx(2.0 * np.abs(torques).max() / 1e-3, rel=1e-5)
     assert batch.ok.all()
+
+
+def test_the_resolver_warns_as_the_solves_do(tmp_path):
+    """A resolver's re-solve and its batch warn like solve and solve_many (once per call)."""
+    mechanism = ur5(tmp_path, 40.0)
+    resolver = mechanism.resolver([PointForce("tool0", FORCE, [0, 0, 0])], gravity=False)
+    with pytest.warns(SuspectValueWarning, match="joint 'shoulder_lift_joint'") as caught:
+        resolver.solve([FORCE])
+    assert len(caught) == 1 and caught[0].filename == __file__
+    with pytest.warns(SuspectValueWarning, match="in case 1") as caught:
+        resolver.solve_many(np.array([[FORCE * 0.5], [FORCE * 2.0]]))
+    assert len(caught) == 1
 
 
 def test_a_bearing_spring_moving_by_more_than_its_part_warns():
@@ -155,6 +167,9 @@ def test_a_configuration_moving_a_locked_joint_is_refused():
         arm.configure(np.array([0.7, 0.5]))
     with pytest.raises(ArgumentError, match=message):
         arm.resolver(q=[0.7, 0.5])
+    resolver = arm.resolver([PointForce("lower", [0.0, -10.0, 0.0], [0.2, 0.0, 0.0])])
+    with pytest.raises(ArgumentError, match=r"^configurations\[1\]: expected " + message):
+        resolver.solve_many(np.array([[[0.0, -5.0, 0.0]]]), [[0.1, 0.3], [0.7, 0.5]])
     batch = arm.solve_many(configurations=[[0.1, 0.3], [0.2, 0.3 + 1e-12]], loads=[None, None])
     assert batch.ok.all()  # round-off from an interpolation is no other value
 
