@@ -121,9 +121,21 @@ def test_at_zero_angle_the_frames_agree_and_a_batch_turns_k_per_case():
     angles = [-1.0, 0.0, 0.5, 2.0]
     loads = [[PointForce("arm", FORCE, ARM), Torque("arm", TORQUE)]] * len(angles)
     batch = housing.solve_many(loads, configurations=[[a] for a in angles], gravity=False)
-    for answer, angle in zip(batch, angles):
+    assert type(batch).__name__ == "ElasticTreeBatch"  # the arrays' lane, K turned per case
+    deflections = batch.deflections("j")
+    moved = batch.frame_displacements("arm")
+    for n, (answer, angle) in enumerate(zip(batch, angles)):
         single = housing.solve(loads[0], gravity=False, q=[angle])
-        assert answer.deflection("j") == pytest.approx(single.deflection("j"), rel=1e-9)
+        expected = single.deflection("j")
+        tight = {"rel": 0.0, "abs": 1e-9 * np.abs(expected).max()}
+        assert answer.deflection("j") == pytest.approx(expected, **tight)
+        assert deflections[n] == pytest.approx(expected, **tight)
+        translation, rotation = single.frame_displacement("arm")
+        assert moved[0][n] == pytest.approx(
+            translation, rel=0.0, abs=1e-9 * np.abs(translation).max()
+        )
+        assert moved[1][n] == pytest.approx(rotation, rel=0.0, abs=1e-9 * np.abs(rotation).max())
+        assert batch.energy[n] == pytest.approx(single.energy, rel=1e-9)
         if angle == ANGLE:  # the nominal angle: against the hand computation as well
             expected = by_hand(housing, "housing")
             R = clearance_frame(housing, answer.configuration.q).rotation

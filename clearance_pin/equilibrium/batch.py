@@ -24,7 +24,7 @@ from ..arguments import check_errors
 from ..errors import ArgumentError, CaseIndexError, ClearancePinError, NotFoundError
 from ..model.couplings import coupled
 from ..model.frames import frame_id as find_frame
-from ..model.stiffness import stiff_joints, turning
+from ..model.stiffness import stiff_joints
 from ..numerics import Array, Mask
 from ..progress import Progress
 from .batch_answers import StackedAnswers, contact_forces, frame_displacements
@@ -502,7 +502,6 @@ def solve_many(
         and not mechanism.loop_joints
         and (stiff := stiff_joints(mechanism.joints))
         and all(subtree_statics_hold(mechanism, joint) for joint in stiff)
-        and not turning(mechanism.tree_joints)  # K turned per case: solved case by case
     ):
         from .elastic_batch import solve_superposed  # a tree's springs: its rigid twin's batch
 
