@@ -13,7 +13,6 @@ import pytest
 
 import clearance_pin as cp
 from clearance_pin import ModelError, PointForce, Torque
-from clearance_pin.errors import UnsupportedError
 
 ANGLE = 0.5  # [rad] the joint's nominal angle
 ARM = np.array([0.4, 0.1, -0.05])  # [m] where the force acts, in the arm's frame
@@ -34,18 +33,23 @@ def full_stiffness() -> np.ndarray:
 def tilted_joint(frame: str | None, extra: str = "") -> cp.Mechanism:
     """A driven ideal revolute joint (no play) with the full K, its axis tilted off the world
     axes, at ANGLE; ``frame``: its stiffness_frame attribute (None: left out)."""
-    k = " ".join(repr(float(v)) for v in full_stiffness().ravel())
     attribute = "" if frame is None else f'stiffness_frame="{frame}"'
-    return cp.loads(f"""<?xml version="1.0"?>
+    return cp.loads(_with_matrix(full_stiffness(), f"{attribute} {extra}"))
+
+
+def _with_matrix(matrix: np.ndarray, attributes: str = 'stiffness_frame="part"') -> str:
+    """The URDF of :func:`tilted_joint` with the stiffness ``matrix`` and ``attributes``."""
+    k = " ".join(repr(float(v)) for v in matrix.ravel())
+    return f"""<?xml version="1.0"?>
 <robot name="tilted">
   <link name="base"/><link name="arm"/>
   <joint name="j" type="revolute"><parent link="base"/><child link="arm"/>
     <origin xyz="0.1 -0.2 0.3" rpy="0.3 -0.2 0.7"/>
     <axis xyz="0.2 0.3 0.9"/><limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
   <clearance_pin>
-    <joint name="j" driven="true" q="{ANGLE}" stiffness="{k}" {attribute} {extra}/>
+    <joint name="j" driven="true" q="{ANGLE}" stiffness="{k}" {attributes}/>
   </clearance_pin>
-</robot>""")
+</robot>"""
 
 
 def clearance_frame(mechanism: cp.Mechanism, q: np.ndarray) -> pin.SE3:
@@ -144,14 +148,30 @@ def test_at_zero_angle_the_frames_agree_and_a_batch_turns_k_per_case():
             assert world == pytest.approx(expected, rel=0.0, abs=1e-9 * np.abs(expected).max())
 
 
-def test_exact_model_refuses_a_turned_housing_k():
-    """The exact model keeps each spring's directions in the part's frame: a turned housing K
-    is refused there, naming the joint; the part's K and an unturned joint solve."""
-    loads = [PointForce("arm", FORCE, ARM)]
-    with pytest.raises(UnsupportedError, match=r"'j'.*housing"):
-        tilted_joint("housing").solve(loads, gravity=False, exact=True)
-    assert tilted_joint("part").solve(loads, gravity=False, exact=True).ok
-    assert tilted_joint("housing").solve(loads, gravity=False, exact=True, q=[0.0]).ok
+def test_the_exact_model_reads_the_housing_k_turned_at_q():
+    """The exact model fixes its springs' directions in the part: a housing K is turned into the
+    part's frame at q for it. Reference: the part-frame K computed here by hand, G^T K G with G
+    from Pinocchio's placements at 0 and at q, given as stiffness_frame="part"; and the
+    small-displacement deflection K^-1 W, which the exact one matches to first order."""
+    loads = [PointForce("arm", FORCE, ARM), Torque("arm", TORQUE)]
+    housing = tilted_joint("housing")
+    zero = housing.q_nominal * 0.0
+    turn = (
+        clearance_frame(housing, zero).rotation.T
+        @ clearance_frame(housing, housing.q_nominal).rotation
+    )
+    G = np.kron(np.eye(2), turn)  # the part's axes in the housing's: diag(R, R)
+    in_part = G.T @ full_stiffness() @ G
+    by_hand_part = cp.loads(_with_matrix(in_part))
+    exact = housing.solve(loads, gravity=False, exact=True)
+    reference = by_hand_part.solve(loads, gravity=False, exact=True)
+    assert exact.ok and exact.formulation == "exact" and exact.mechanism is housing
+    e, expected = exact.deflection("j"), reference.deflection("j")
+    assert e == pytest.approx(expected, rel=0.0, abs=1e-9 * np.abs(expected).max())
+    linear = housing.solve(loads, gravity=False).deflection("j")
+    assert e == pytest.approx(linear, rel=0.0, abs=5e-3 * np.abs(linear).max())
+    part = tilted_joint("part").solve(loads, gravity=False, exact=True).deflection("j")
+    assert np.linalg.norm(part - e) > 0.05 * np.linalg.norm(e)
 
 
 def test_an_axisymmetric_k_is_the_same_in_both_frames():

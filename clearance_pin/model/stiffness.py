@@ -24,24 +24,27 @@ side, the clearance frame at the joint's zero motion) is, in the part's frame at
 
 .. math:: K_{part}(q) = G^T K\, G, \qquad G = \mathrm{diag}(R(q), R(q)),
 
-:math:`R(q)` the part's rotation relative to the housing in clearance-frame axes (for a
-revolute joint the rotation by q about x): a deflection :math:`e` of the part reads
-:math:`G e` in the housing's axes, of energy :math:`\tfrac12 (G e)^T K (G e)`. Its
-deflecting directions are :math:`G^T D` with the same stiffnesses (:func:`elastic_at`, the one
-place K is turned). ``"part"`` keeps K in the child's frame, turning with it. The default is the
-housing: a bearing's stiffness, stated in a datasheet, belongs to the bearing seat and its
-housing, which do not turn with the shaft; a K symmetric about the axis (every attribute but the
-full matrix: equal radial stiffness in v and w, equal tilt in beta and gamma) is the same in
-both frames, so the choice shows only for a full, non-axisymmetric K (a housing stiffer one way
+:math:`R(q)` the part's rotation relative to the housing in clearance-frame axes (for a revolute
+joint the rotation by q about x): a deflection :math:`e` of the part reads :math:`G e` in the
+housing's axes, of energy :math:`\tfrac12 (G e)^T K (G e)`. Its deflecting directions are
+:math:`G^T D` with the same stiffnesses (:func:`elastic_at`, read by the small-displacement maps
+and the reactions; :func:`in_part_frame` gives the exact model's twin :math:`G^T K G`; a tree batch
+turns its wrenches by the same G per case, from the cases' placements,
+``equilibrium/elastic_batch.py``). ``"part"`` keeps K in the child's frame, turning with it. The
+default is the housing: a bearing's stiffness, stated in a datasheet, belongs to the bearing seat
+and its housing, which do not turn with the shaft; a K symmetric about the axis (every attribute
+but the full matrix: equal radial stiffness in v and w, equal tilt in beta and gamma) is the same
+in both frames, so the choice shows only for a full, non-axisymmetric K (a housing stiffer one way
 than the other, or a link's compliance lumped at its joint as in the virtual joint method, which
-turns with the link: ``"part"``). A loop joint's clearance frame keeps the housing's axes about
-the spin (docs/method.md section 2.3), so its K is the housing's; ``"part"`` is refused there.
+turns with the link: ``"part"``). A loop joint's clearance frame keeps the housing's axes about the
+spin (docs/method.md section 2.3), so its K is the housing's; ``"part"`` is refused there.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import replace
 from functools import lru_cache
 
 import numpy as np
@@ -220,6 +223,19 @@ def elastic_at(
     return turned, stiffnesses
 
 
+def in_part_frame(clearance: Clearance, rotation: np.ndarray) -> Clearance:
+    """``clearance`` with its K (stated in the housing's frame) given in the part's frame of a
+    joint turned by ``rotation`` (3, 3) (:func:`part_rotation`): :math:`G^T K G`,
+    ``stiffness_frame="part"`` (the exact model's twin: its springs' directions are fixed in the
+    part)."""
+    assert clearance.stiffness is not None
+    turn = _turn(rotation)
+    matrix = turn.T @ np.array(clearance.stiffness, dtype=float) @ turn
+    return replace(
+        clearance, stiffness=as_entries(0.5 * (matrix + matrix.T)), stiffness_frame="part"
+    )
+
+
 def turning(joints: Iterable[TreeJoint | LoopJoint]) -> list[TreeJoint]:
     """The tree joints whose K is stated in the housing's frame and is not symmetric about the
     axis: their K in the part's frame depends on the joint's angle (:func:`elastic_at`)."""
@@ -257,6 +273,7 @@ __all__ = [
     "STIFFNESS_FRAMES",
     "axisymmetric",
     "elastic_at",
+    "in_part_frame",
     "part_rotation",
     "turned_stiffness",
     "turning",
