@@ -180,3 +180,14 @@ def test_a_lock_without_a_value_holds_the_nominal_one_and_a_free_joint_is_not_he
         arm.solve(q=[0.0, 0.2])
     assert not arm.joint("shoulder").locked
     assert arm.solve(q=[1.0, 0.0]).ok  # the shoulder is driven, not locked: it moves
+
+
+def test_the_accuracy_command_keeps_locked_joints_on_their_locks():
+    """clearance-pin accuracy draws random commands of the driven joints: a locked joint (held
+    as a driven one) keeps its lock's value, so its poses solve."""
+    from clearance_pin.accuracy.command import random_poses
+
+    arm = locked_arm()
+    poses = random_poses(arm, 5, 0.5, 0)
+    assert np.all(poses[:, 1] == 0.3) and np.ptp(poses[:, 0]) > 0.0
+    assert arm.solve_many(configurations=poses, loads=[None] * 5).ok.all()
