@@ -46,11 +46,11 @@ def equilibrium_document(equilibrium: Any) -> dict[str, Any]:
     outputs = {}
     points = equilibrium.output_points or resolve_outputs(mechanism, equilibrium.loads or ())
     oMi = equilibrium.configuration.oMi
-    for k, point in enumerate(points):
+    for point in points:
         translation, rotation = equilibrium.outputs[point.name]
         loaded = "@" in point.name  # a load's point (named link@[x y z] in the text table)
         link = point.name.split("@", 1)[0]
-        outputs[f"load point {k} on {link}" if loaded else point.name] = {
+        outputs[point.name] = {  # the name the table and Equilibrium.outputs use
             "kind": "load point" if loaded else "frame",
             "link": link,
             "nominal_world_position_m": _vector((oMi[point.body] * point.placement).translation),

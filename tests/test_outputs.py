@@ -18,6 +18,7 @@ import pinocchio as pin
 import pytest
 
 import clearance_pin as cp
+from clearance_pin import json_documents
 from clearance_pin.errors import ArgumentError, ClearancePinError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -184,3 +185,18 @@ def test_batch_frame_displacements_are_the_items_ones():
         t, r = batch[i].frame_displacement("tool")
         assert np.array_equal(translations[i], t) and np.array_equal(rotations[i], r)
     assert isinstance(batch, cp.EquilibriumBatch) and cp.CheckReport is not None
+
+
+def test_an_asked_frame_at_a_loaded_point_is_reported_once_under_its_name():
+    """The bundled arm's tool load sits at the tool frame's origin: asking for ``tool`` reports
+    one output, named ``tool`` (it listed ``tool@[0 0 0]`` and ``tool`` as two equal rows), in
+    the table and in the JSON document alike, with the point's displacement."""
+    arm = cp.load(str(ROOT / "models" / "arm_6r.urdf"))
+    asked = arm.solve(outputs=["tool"])
+    assert list(asked.outputs) == ["tool"]
+    unasked = arm.solve()
+    (point,) = [name for name in unasked.outputs if name.startswith("tool@")]
+    assert np.array_equal(asked.outputs["tool"][0], unasked.outputs[point][0])
+    assert asked.table().count("\ntool ") == 1
+    document = json_documents.equilibrium_document(asked)
+    assert list(document["outputs"]) == ["tool"]

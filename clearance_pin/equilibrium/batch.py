@@ -22,7 +22,7 @@ import numpy as np
 
 from ..arguments import check_errors
 from ..errors import ArgumentError, CaseIndexError, ClearancePinError, NotFoundError
-from ..model.couplings import coupled
+from ..model.couplings import coupled, leader_springs
 from ..model.frames import frame_id as find_frame
 from ..model.stiffness import stiff_joints
 from ..numerics import Array, Mask
@@ -502,6 +502,7 @@ def solve_many(
         and not mechanism.loop_joints
         and (stiff := stiff_joints(mechanism.joints))
         and all(subtree_statics_hold(mechanism, joint) for joint in stiff)
+        and not leader_springs(mechanism.couplings, mechanism.joints)  # as solve.py
     ):
         from .elastic_batch import solve_superposed  # a tree's springs: its rigid twin's batch
 

@@ -82,6 +82,8 @@ def _minimum_norm_forces(gradients: Array, objectives: Array, lam: Array) -> Arr
     """Per case, as :func:`.kkt._minimum_norm_forces`: Newton's multipliers when the active
     gradients are independent, else the minimum-norm ones when they are non-negative."""
     count, size = gradients.shape[1:]
+    if count == 0:  # no active contact: no force to choose
+        return lam
     singular = np.linalg.svd(gradients, compute_uv=False)
     unique = singular[:, -1] > 1e-10 * singular[:, 0] if count <= size else np.zeros(len(lam), bool)
     if unique.all():

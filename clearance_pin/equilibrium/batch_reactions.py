@@ -22,7 +22,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ArgumentError, NotFoundError
-from ..model.couplings import passive
+from ..model.couplings import leader_stops, passive
 from ..numerics import Array
 from .batch_answers import StackedAnswers, contact_forces
 from .load_table import body_wrenches, load_table
@@ -190,6 +190,10 @@ def stacked_reactions(answers: StackedAnswers) -> StackedReactions:
     names = tuple(mechanism.joints)
     count, bodies = len(answers.y), model.njoints
     rotations, translations = answers.rotations, answers.translations
+    if leader_stops(mechanism.couplings, mechanism.joints):  # what it passes on: per case
+        empty = {part: np.full((count, len(names), 6), np.nan) for part in PARTS}
+        shape = (1, len(names))
+        return StackedReactions(names, empty, np.zeros((*shape, 3, 3)), np.zeros((*shape, 3)))
     if answers.along:  # a tree: joint k's child-side clearance frame is oM_k C_k
         by_name = {joint.name: joint for joint in mechanism.tree_joints}
         tree = [by_name[name] for name in names]  # a trajectory is a tree's: all tree joints

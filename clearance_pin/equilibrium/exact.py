@@ -19,7 +19,7 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
 import numpy as np
@@ -30,7 +30,7 @@ from ..errors import SolverError, UnboundedLoadError, UnsupportedError
 from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import Placement, compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
-from ..model.couplings import passive
+from ..model.couplings import driven, passive
 from ..model.joints import LoopJoint, TreeJoint
 from ..model.stiffness import elastic
 from ..numerics import Array, Mask, null_space
@@ -116,6 +116,7 @@ class ExactProblem:
         motions = {}  # per tree joint, its own motion's exp coordinate (a coupling reads it)
         spring_energy = ca.SX(0)
         springs = 0
+        coupled = _coupled_turns(mechanism, x)
         for joint in mechanism.tree_joints:
             basis = tree_joint_basis(joint)
             k = basis.shape[1]
@@ -135,6 +136,9 @@ class ExactProblem:
                 springs += stiffnesses.size
                 spring_energy += 0.5 * ca.dot(ca.DM(stiffnesses), e * e)
                 R_t, p_t = compose((R_t, p_t), se3_exp(ca.mtimes(ca.DM(directions), e)))
+            if joint.name in coupled:  # turned (slid) with its leader first, then its play
+                along = ca.DM(np.eye(6)[cast(int, joint.motion_component)])
+                R_t, p_t = compose(se3_exp(along * coupled[joint.name]), (R_t, p_t))
             C = ca.DM(joint.rotation)
             deltas[joint.joint_id] = (ca.mtimes([C, R_t, C.T]), ca.mtimes(C, p_t))
         nominal = kin.joint_placements(q)
@@ -304,6 +308,32 @@ class ExactProblem:
                 [sigma],
             ]
         )
+
+
+def _coupled_turns(mechanism: Mechanism, x: ca.SX) -> dict[str, ca.SX]:
+    r"""Per follower of a driven leader, the turn (slide) its coupling adds to its own motion,
+    :math:`m\, \delta q_l` [rad or m], :math:`\delta q_l` the leader's whole motion about its
+    axis: its play's and its spring's exp coordinates along it (one axis: they add exactly) plus
+    its own coupled turn (a chain); :mod:`..model.couplings`. The unknowns ``x`` in the order
+    the problem stacks them (per tree joint its play, then its spring's)."""
+    couplings = driven(mechanism.couplings, mechanism.joints)
+    if not couplings:
+        return {}
+    own, offset = {}, 0
+    for joint in mechanism.tree_joints:
+        basis = tree_joint_basis(joint)
+        directions, _ = elastic(joint.clearance)
+        columns = np.hstack([basis, directions])
+        if joint.motion_component is not None and columns.shape[1]:
+            along = columns[joint.motion_component]
+            own[joint.name] = ca.dot(ca.DM(along), x[offset : offset + columns.shape[1]])
+        offset += columns.shape[1]
+    whole: dict[str, Any] = dict(own)
+    turns: dict[str, ca.SX] = {}
+    for coupling in couplings:  # leaders before followers
+        turns[coupling.follower] = coupling.multiplier * whole.get(coupling.leader, 0.0)
+        whole[coupling.follower] = own.get(coupling.follower, 0.0) + turns[coupling.follower]
+    return turns
 
 
 def _loop_equalities(mechanism: Mechanism, relative: Mapping[str, Placement]) -> list[ca.SX]:

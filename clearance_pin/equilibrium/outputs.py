@@ -120,12 +120,17 @@ def _resolve(mechanism: Any, loads: Any, outputs: Any) -> tuple[OutputPoint, ...
                 f"outputs[{index}]", f"a frame of {mechanism.name!r}: {', '.join(valid)}", name
             )
         frame = model.frames[frame_id(model, name)]
-        same = any(  # a frame at a loaded point is reported once, under the point's name
-            p.body == frame.parentJoint and p.placement.isApprox(frame.placement, 1e-12)
-            for p in points.values()
-        )
-        if not same or outputs is not None:
-            points.setdefault(name, OutputPoint(name, frame.parentJoint, frame.placement))
+        same = [  # a frame at a loaded point is reported once: under the frame's name if asked
+            key
+            for key, p in points.items()
+            if p.body == frame.parentJoint and p.placement.isApprox(frame.placement, 1e-12)
+        ]
+        output = OutputPoint(name, frame.parentJoint, frame.placement)
+        if outputs is not None and same and "@" in same[0]:  # link@[x y z]: a PointForce's
+            points = {(name if key == same[0] else key): p for key, p in points.items()}
+            points[name] = output
+        elif not same or outputs is not None:
+            points.setdefault(name, output)
     return tuple(points.values())
 
 

@@ -26,7 +26,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from ..errors import LoadError
-from ..model.couplings import passive
+from ..model.couplings import driven, passive
 from ..model.loads import Gravity, PointForce, Torque
 from ..numerics import Array, Mask, column_space, null_space
 from .cache import LOAD_MAPS_KEPT, LeastRecentlyUsed, SolveCache
@@ -86,11 +86,13 @@ class PreparedGeometry:
         )
         # answer maps
         self._torsor_rows = np.vstack([maps.joint_torsor[name] for name in self.terms.joint_names])
-        # per joint with stiffness, x -> its elastic deflection (6, n): its torsor less its play
+        # per joint with stiffness, x -> its elastic deflection (6, n): its torsor less its play,
+        # on its own elastic unknowns (a follower's torsor also reads its leader's motion)
+        owner = np.array(maps.variable_joint)
         self.deflection_rows = {
-            name: maps.joint_torsor[name] - maps.play_torsor[name]
+            name: (maps.joint_torsor[name] - maps.play_torsor[name]) * own
             for name in self.terms.joint_names
-            if maps.play_torsor[name] is not maps.joint_torsor[name]
+            if (own := (owner == name) & (maps.stiffness > 0.0)).any()
         }
         self._twist_rows = np.vstack(maps.body_twist)
         self._origins = np.array([m.translation for m in configuration.oMi])
@@ -479,7 +481,12 @@ def prepared_geometry(mechanism: Mechanism, q: npt.ArrayLike | None = None) -> P
                 placed = cache.data
                 pin.framesForwardKinematics(mechanism.model, placed, configuration.q)
             maps = build_maps(
-                mechanism.model, placed, mechanism.tree_joints, mechanism.loop_joints, configuration
+                mechanism.model,
+                placed,
+                mechanism.tree_joints,
+                mechanism.loop_joints,
+                configuration,
+                driven(mechanism.couplings, mechanism.joints),
             )
             prepared = PreparedGeometry(mechanism, configuration, maps, _reduced(mechanism, maps))
             cache.keep_geometry(key, prepared)

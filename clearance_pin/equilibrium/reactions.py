@@ -58,7 +58,7 @@ import pinocchio as pin
 
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.clearance import ALPHA, BETA, GAMMA
-from ..model.couplings import coupled_joint, passive
+from ..model.couplings import coupled_joint, driven, passive
 from ..model.joints import LoopJoint, TreeJoint
 from ..model.stiffness import elastic_at
 from ..numerics import Array, null_space
@@ -195,6 +195,11 @@ def joint_reactions(equilibrium: Equilibrium) -> JointReactions:
         name: frames[name].parent if exact else frames[name].child for name in mechanism.joints
     }
     contact = {name: np.zeros(6) for name in mechanism.joints}
+    held_couplings = driven(getattr(mechanism, "couplings", ()), mechanism.joints)
+    deadband = {
+        c.follower: c for c in held_couplings if mechanism.joints[c.follower].clearance.backlash
+    }
+    transmitted = {name: np.zeros(6) for name in mechanism.joints}  # leaders' share of it
     for c in equilibrium.contacts:
         if c.moment is not None:
             moment = c.moment
@@ -204,13 +209,26 @@ def joint_reactions(equilibrium: Equilibrium) -> JointReactions:
             raise ClearancePinError(f"contact {c.label} has no position: its moment is unknown")
         local = pin.Force(c.force, moment)
         contact[c.joint] += joint_frames[c.joint].act(local).vector
+        if c.point == "backlash" and c.joint in deadband:  # a coupling's deadband holds mu_f:
+            coupling = deadband[c.joint]  # -m mu_f about its leader's axis (module docstring)
+            follower = coupled_joint(mechanism.joints, c.joint)
+            mu = float(np.concatenate([c.force, moment])[cast(int, follower.motion_component)])
+            leader = coupled_joint(mechanism.joints, coupling.leader)
+            transmitted[leader.name] -= (
+                coupling.multiplier * mu * _motion_wrench(leader, frames[leader.name])
+            )
 
     columns: list[Array] = []  # generator wrenches at the world origin
     owners: list[tuple[str, str]] = []  # (joint, part) of each
     locals_: list[Array] = []  # and in the joint's own frame
     held = exact and equilibrium.residuals.get("held_by_gauge", 0.0) > 0.0
+    # a passive coupling holds both its joints' motions, a driven leader's its follower's unless
+    # the follower's deadband does (its stop: a contact, ``transmitted`` above)
     couplings = passive(getattr(mechanism, "couplings", ()), mechanism.joints)
-    tied = {name for c in couplings for name in (c.follower, c.leader)}  # the coupling holds
+    tied = {name for c in couplings for name in (c.follower, c.leader)}
+    rigid_held = tuple(c for c in held_couplings if c.follower not in deadband)
+    tied |= {c.follower for c in rigid_held}
+    couplings = couplings + rigid_held
     for name, joint in mechanism.joints.items():
         for part, local, placement in _generators(joint, frames[name], exact, held, tied):
             for column in local.T:
@@ -249,6 +267,9 @@ def joint_reactions(equilibrium: Equilibrium) -> JointReactions:
     reference = float(np.linalg.norm(known.reshape(-1, 6), axis=1).sum())
     for name, wrench in contact.items():
         known += scatter(wrench, name)
+    for name, wrench in transmitted.items():
+        if wrench.any():
+            known += scatter(wrench, name)
     if reference == 0.0:
         reference = float(np.linalg.norm(known.reshape(-1, 6), axis=1).sum())
 
@@ -276,6 +297,8 @@ def joint_reactions(equilibrium: Equilibrium) -> JointReactions:
     for pair, value in zip(paired, solution[len(columns) :]):
         for name, wrench in pair:  # what the coupling holds: as a drive would
             parts["drive"][name] += value * wrench
+    for name, wrench in transmitted.items():
+        parts["drive"][name] += wrench
     return JointReactions(
         contact, parts["rigid"], parts["drive"], parts["held"], joint_frames, float(residual)
     )
@@ -387,7 +410,7 @@ def _generators(
 ) -> list[Generator]:
     """(part, local wrenches (6, k), placement of the frame they are written in) of a joint's
     rigid directions and drive, and with ``held`` of its own free motions (module docstring)
-    but the motion of a joint a passive coupling ties (``tied``: the coupling holds it)."""
+    but the motion of a joint a coupling ties (``tied``: the coupling holds it, its drive too)."""
     if isinstance(joint, TreeJoint):
         return _tree_generators(joint, frames, exact, held, joint.name in tied)
     return _loop_generators(joint, frames, exact)
@@ -404,6 +427,9 @@ def _tree_generators(
         drive.append(direction / np.linalg.norm(direction))
     drives = np.array(drive).reshape(-1, 6).T
     rigid = null_space(np.hstack([basis, drives]).T)
+    if tied and joint.motion_component in joint.locked_components:
+        # its coupling holds its motion (a pair of columns of its own), not a drive of its own
+        drives = drives[:, [c != joint.motion_component for c in joint.locked_components]]
     if not exact:
         return [("rigid", rigid, frames.child), ("drive", drives, frames.child)]
     dual = pin.Jlog6(frames.relative).T

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ClearancePinError
+from ..model.couplings import chain_multipliers
 
 UM = 1e6  # [um per m]
 URAD = 1e6  # [urad per rad]
@@ -164,17 +165,23 @@ def bearing_loads_table(equilibrium: Any) -> list[str]:
         "(x = joint axis), moments about the joint centre",
         *columns(header, rows),
     ]
-    couplings = getattr(equilibrium.mechanism, "couplings", ())
-    if couplings:  # a leader's motor also carries its followers' coupling torques
+    mechanism = equilibrium.mechanism
+    chains = chain_multipliers(getattr(mechanism, "couplings", ()), mechanism.joints)
+    if chains:  # a leader's motor also carries its followers' torques
         motors = equilibrium.motor_torques()
-        for coupling in couplings:
-            if coupling.leader in motors:
-                leader = equilibrium.mechanism.joints[coupling.leader]
-                unit = "N" if getattr(leader, "motion_component", None) == 0 else "N m"
+        for motor, torque in motors.items():
+            moved = [
+                f"{factor:g} x {name}'s" for name, (root, factor) in chains.items() if root == motor
+            ]
+            if moved:
+                unit = (
+                    "N"
+                    if getattr(mechanism.joints[motor], "motion_component", None) == 0
+                    else "N m"
+                )
                 lines.append(
-                    f"motor of {coupling.leader}: {significant(motors[coupling.leader], floor)} "
-                    f"{unit} (its drive plus {coupling.multiplier:g} x {coupling.follower}'s "
-                    "coupling torque)"
+                    f"motor of {motor}: {significant(torque, floor)} {unit} (its own joint's "
+                    f"drive plus {', '.join(moved)} through the couplings)"
                 )
     return lines
 

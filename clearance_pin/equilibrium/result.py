@@ -26,6 +26,7 @@ import pinocchio as pin
 from ..errors import ArgumentError, NotFoundError
 from ..kinematics.joint_shares import joint_levers, moved_by
 from ..kinematics.loop_frames import RIGID_TOLERANCE
+from ..model.couplings import chain_multipliers
 from ..model.frames import frame_id as find_frame
 from .displacement import Displacement, displacement_in
 from .method import Method
@@ -293,8 +294,10 @@ class Equilibrium:
     def motor_torques(self) -> dict[str, float]:
         r"""Per motor (a driven joint that is no coupling's follower): the torque [N m] (force
         [N]) it exerts, its own :meth:`drive_torque` plus, for a coupling's leader, m times each
-        follower's (virtual work of the coupling :math:`q_f = m q_l + o`:
-        :math:`\tau_l\, \delta q_l + \tau_f\, m\, \delta q_l`)."""
+        follower's, through chains of any depth the product of the multipliers (virtual work of
+        the coupling :math:`q_f = m q_l + o`: :math:`\tau_l\, \delta q_l + \tau_f\, m\,
+        \delta q_l`; :func:`~clearance_pin.model.couplings.chain_multipliers`). With backlash it
+        is what the motor's stop holds."""
         mechanism = cast("Mechanism", self.mechanism)
         couplings = getattr(mechanism, "couplings", ())
         followers = {c.follower for c in couplings}
@@ -303,11 +306,9 @@ class Equilibrium:
             for j in mechanism.tree_joints
             if j.driven and j.name not in followers
         }
-        for coupling in couplings:
-            if coupling.leader in motors:
-                motors[coupling.leader] += coupling.multiplier * self.drive_torque(
-                    coupling.follower
-                )
+        for follower, (motor, factor) in chain_multipliers(couplings, mechanism.joints).items():
+            if motor in motors:
+                motors[motor] += factor * self.drive_torque(follower)
         return motors
 
     @property

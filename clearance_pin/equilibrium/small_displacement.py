@@ -20,6 +20,10 @@ of :math:`K_k` that deflect, orthonormal, with stiffnesses :math:`k_i`) and its 
 play part alone, :math:`B_k t_k` for a tree joint, the relative motion minus :math:`D_k e_k` for
 a loop joint. The elastic energy is :math:`\tfrac12 \sum_i k_i x_i^2` over the elastic unknowns
 (``SmallDisplacementMaps.stiffness``).
+
+A follower of a driven leader (:mod:`clearance_pin.model.couplings`) moves m times its leader's
+whole motion about (along) its axis besides its own: :math:`T_f = B_f t_f + D_f e_f +
+m\, a_f\, (a_l \cdot T_l)`, :math:`a` the motion component; its contacts read its own play.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ..model.couplings import Coupling, coupled_motions
 from ..model.joints import LoopJoint, TreeJoint
 from ..model.stiffness import elastic, elastic_at
 from ..numerics import null_space
@@ -106,6 +111,7 @@ def build_maps(
     tree_joints: tuple[TreeJoint, ...],
     loop_joints: tuple[LoopJoint, ...],
     configuration: Any = None,
+    couplings: tuple[Coupling, ...] = (),
 ) -> SmallDisplacementMaps:
     """Build the maps at the configuration already placed in ``data`` (oMi and oMf up to date:
     a ``pin.Data``, or a :class:`~clearance_pin.mechanism.Configuration`).
@@ -113,7 +119,9 @@ def build_maps(
     ``configuration``: the :class:`~clearance_pin.mechanism.Configuration` placed in ``data``:
     a loop joint's torsor is taken at its child-side clearance frame (``bMc``, where the journal,
     block or ball is) and its contacts start from its eccentricity; default: at ``frame_a``,
-    aligned.
+    aligned. ``couplings``: those of driven leaders, in order (:func:`~..model.couplings.driven`):
+    a follower's joint torsor gains m times its leader's whole motion along its own motion
+    (its play torsor, which its contacts read, does not).
     """
     variable_joint: list[str] = []
     variable_basis: list[np.ndarray] = []
@@ -151,22 +159,26 @@ def build_maps(
     play_torsor: dict[str, np.ndarray] = {}
     joint_centre: dict[str, pin.SE3] = {}
     eccentricity: dict[str, pin.SE3] = {}
+    for joint in tree_joints:
+        start, stop = columns_of[joint.joint_id]
+        torsor = np.zeros((6, n))
+        torsor[:, start:stop] = bases[joint.joint_id]
+        joint_torsor[joint.name] = torsor
+        if stop - start > plays[joint.joint_id]:
+            play = torsor.copy()
+            play[:, start + plays[joint.joint_id] : stop] = 0.0
+            play_torsor[joint.name] = play
+    if couplings:  # a follower moves with its leader's whole motion (model.couplings)
+        by_name = {joint.name: joint for joint in tree_joints}
+        for name, torsor in coupled_motions(joint_torsor, couplings, by_name).items():
+            play_torsor.setdefault(name, joint_torsor[name])  # its contacts read its own play
+            joint_torsor[name] = torsor
     by_id = {joint.joint_id: joint for joint in tree_joints}
     for i in range(1, model.njoints):
-        parent = model.parents[i]
-        body_twist[i] = body_twist[parent].copy()
         joint = by_id[i]
         oMc = data.oMi[i] * pin.SE3(joint.rotation, np.zeros(3))
-        start, stop = columns_of[i]
-        body_twist[i][:, start:stop] += oMc.action @ bases[i]
-        torsor = np.zeros((6, n))
-        torsor[:, start:stop] = bases[i]
-        joint_torsor[joint.name] = torsor
+        body_twist[i] = body_twist[model.parents[i]] + oMc.action @ joint_torsor[joint.name]
         joint_centre[joint.name] = oMc
-        if stop - start > plays[i]:
-            play = torsor.copy()
-            play[:, start + plays[i] : stop] = 0.0
-            play_torsor[joint.name] = play
 
     for loop in loop_joints:
         frame_a, frame_b = model.frames[loop.frame_a], model.frames[loop.frame_b]

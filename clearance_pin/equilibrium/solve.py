@@ -25,7 +25,7 @@ from ..errors import (
     SolverError,
     UnboundedLoadError,
 )
-from ..model.couplings import passive
+from ..model.couplings import driven, leader_springs, passive
 from ..numerics import norm
 from .block_verify import closed_form_answer
 from .blocks import block_structure
@@ -79,7 +79,13 @@ def solve_linear(
     started = time.perf_counter()
     if prepared is None:
         prepared = prepared_geometry(mechanism, q)
-    if prepared.geometry.stiffness is not None and not mechanism.loop_joints:
+    # a tree's springs by superposition, each from its joint's reaction: not a coupling's
+    # leader, whose spring also carries its followers' torques
+    if (
+        prepared.geometry.stiffness is not None
+        and not mechanism.loop_joints
+        and not leader_springs(mechanism.couplings, mechanism.joints)
+    ):
         return _springs_superposed(mechanism, prepared, loads, q, tol, backend, warm_start,
                                    output_points, started)  # fmt: skip
     cache: SolveCache = mechanism.cache
@@ -283,7 +289,10 @@ def _singular_position(mechanism: Mechanism, prepared: PreparedGeometry) -> bool
         configuration = mechanism.configure(nearby)
         data = mechanism.cache.data  # this thread's
         pin.framesForwardKinematics(model, data, configuration.q)
-        maps = build_maps(model, data, mechanism.tree_joints, mechanism.loop_joints, configuration)
+        held = driven(mechanism.couplings, mechanism.joints)
+        maps = build_maps(
+            model, data, mechanism.tree_joints, mechanism.loop_joints, configuration, held
+        )
         couplings = passive(mechanism.couplings, mechanism.joints)
         there = reduce_geometry(maps, mechanism.joints, mechanism.length_scale(), couplings)
     except (ClearancePinError, ValueError, np.linalg.LinAlgError):

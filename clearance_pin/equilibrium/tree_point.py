@@ -22,7 +22,6 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ClearancePinError
-from .small_displacement import tree_joint_basis
 
 if TYPE_CHECKING:
     from ..model.mechanism_parts import ConfigurationParts as Configuration
@@ -65,15 +64,13 @@ class TreePoint:
         :func:`.small_displacement.build_maps` forms its maps (the same numbers)."""
         mechanism = self.nominal.mechanism
         model, oMi = mechanism.model, self.configuration.oMi
-        columns = _columns(self.nominal)
+        torsors = self.nominal.maps.joint_torsor  # the same at every configuration of a tree
         by_id = {joint.joint_id: joint for joint in mechanism.tree_joints}
         rows = np.zeros((model.njoints, 6, x.shape[-1]))
         for i in range(1, model.njoints):  # a parent before its children
             joint = by_id[i]
-            rows[i] = rows[model.parents[i]]
-            start, stop = columns[i]
             oMc = oMi[i] * pin.SE3(joint.rotation, np.zeros(3))
-            rows[i][:, start:stop] += oMc.action @ tree_joint_basis(joint)
+            rows[i] = rows[model.parents[i]] + oMc.action @ torsors[joint.name]
         twists: np.ndarray = (rows.reshape(-1, x.shape[-1]) @ x).reshape(model.njoints, 6)
         return twists
 
@@ -96,19 +93,6 @@ def body_motions(twists: np.ndarray, origins: np.ndarray, names: Any) -> dict[st
         axis=1,
     )
     return {names[i]: (moved[i], twists[i, 3:]) for i in range(1, len(twists))}
-
-
-def _columns(nominal: PreparedGeometry) -> dict[int, tuple[int, int]]:
-    """Pinocchio joint index -> the columns (start, stop) of its unknowns (memoised)."""
-    columns = nominal.__dict__.get("_tree_columns")
-    if columns is None:
-        columns, start = {}, 0
-        for joint in nominal.mechanism.tree_joints:
-            stop = start + tree_joint_basis(joint).shape[1]
-            columns[joint.joint_id] = (start, stop)
-            start = stop
-        nominal.__dict__["_tree_columns"] = columns
-    return columns
 
 
 __all__ = ["TreePoint", "body_motions"]

@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
+from ..model.couplings import driven
 from ..numerics import Array, Index, Mask
 from .reduction import ROUND_OFF_WORK, UNBOUNDED_FRACTION, ReducedGeometry
 from .small_displacement import tree_joint_basis
@@ -59,7 +60,8 @@ class TreeMaps:
             carries body b.
         parents: the parent body of every body (Pinocchio's order: a parent before its
             children), (bodies,).
-        selection: (6 J, n), the blocks B_k: g = -(local wrenches (N, 6 J)) @ selection.
+        selection: (6 J, n), the blocks B_k: g = -(local wrenches (N, 6 J)) @ selection; a
+            follower's motion row also reads m times its leader's (:mod:`..model.couplings`).
     """
 
     joint_ids: Index
@@ -95,6 +97,13 @@ def tree_maps(mechanism: Mechanism, geometry: ReducedGeometry | None = None) -> 
     for k, basis in enumerate(bases):
         selection[6 * k : 6 * k + 6, column : column + basis.shape[1]] = basis
         column += basis.shape[1]
+    row = {joint.name: 6 * k for k, joint in enumerate(joints)}
+    by_name = {joint.name: joint for joint in joints}
+    for coupling in driven(mechanism.couplings, by_name):  # a follower moves with its leader
+        follower, leader = by_name[coupling.follower], by_name[coupling.leader]
+        selection[row[follower.name] + cast(int, follower.motion_component)] += (
+            coupling.multiplier * selection[row[leader.name] + cast(int, leader.motion_component)]
+        )
     ids = np.array([joint.joint_id for joint in joints], dtype=np.intp)
     return TreeMaps(
         joint_ids=ids,

@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import LoadError, ModelError
 from .clearance import BACKLASH_KINDS, KINDS, Clearance, U, ideal
-from .couplings import Coupling, coupled
+from .couplings import Coupling, coupled, coupling_cycle, in_order
 from .dimensions import Dimension, parse_dimensions
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotation_x_to
 from .length_check import Kind, Length, check_lengths
@@ -417,11 +417,16 @@ class _BlockReader:
 
         # a follower is held through its leader's drive; a passive leader's follower is passive
         # too, the coupling a condition between the two joints' motions (:mod:`.couplings`)
-        followers = {
-            c.follower
-            for c in self.joints.couplings
-            if _boolean(self.source, element_of(c.leader), "driven", False)
-        }
+        followers: set[str] = set()  # a chain's: a follower's follower is held too
+        try:
+            ordered = in_order(self.joints.couplings)
+        except ValueError:
+            ordered = ()  # a cycle: refused by name below (_coupled)
+        for c in ordered:
+            if c.leader in followers or _boolean(
+                self.source, element_of(c.leader), "driven", False
+            ):
+                followers.add(c.follower)
         for joint_id in range(1, model.njoints):
             name = model.names[joint_id]
             joint_type = self.joints.types.get(name)
@@ -496,6 +501,15 @@ class _BlockReader:
         """``q`` with each follower at its leader's value times the multiplier plus the offset;
         a leader that is not driven, or a follower given another value, is refused."""
         couplings = self.couplings
+        cycle = coupling_cycle(couplings)
+        if cycle:
+            chain = " -> ".join((*cycle, cycle[0]))
+            raise ModelError(
+                self.source,
+                f"<joint name='{cycle[0]}'> <mimic>",
+                f"the couplings form a cycle ({chain}: each follows the next): no joint of it "
+                "is set by a joint outside it; remove one <mimic> of the cycle",
+            )
         by_name = {joint.name: joint for joint in joints}
         for coupling in couplings:
             label = f"<joint name='{coupling.follower}'> <mimic joint='{coupling.leader}'>"

@@ -1,12 +1,22 @@
 r"""Coupled joints: a follower driven through its leader (a URDF ``<mimic>``).
 
 A follower's value is :math:`q_f = m\, q_l + o` (multiplier m, offset o, URDF defaults 1 and 0), as
-a gear pair, a rack and pinion or a tendon sets it. clearance_pin holds a follower through its
-leader's drive: the leader must be driven, and the follower is then held at :math:`m q_l + o` as a
-driven joint (its own bearing play, if any, still acts; a ``backlash`` on the follower is the
-coupling's deadband). The torque the coupling holds on the follower is its reported drive torque;
-the leader's motor carries :math:`m` times it besides its own (virtual work of the coupling:
-:math:`\tau_l\, \delta q_l + \tau_f\, m\, \delta q_l`).
+a gear pair, a rack and pinion or a tendon sets it. The coupling ties the *actual* joint values.
+A driven leader's follower is held through the leader's drive: whatever moves the leader inside
+its drive (its backlash, its drive's deflection) moves the follower m times as much, and the
+follower's own ``backlash`` and drive stiffness sit in series in the coupling (its deadband and
+its compliance). In the small-displacement model the follower's motion about (along) its axis is
+
+.. math::  \delta q_f = m\, \delta q_l + \beta_f + e_f ,
+
+:math:`\delta q_l` the leader's whole motion (its own :math:`\beta_l + e_l`, plus m times its own
+leader's for a chain), :math:`\beta_f` the follower's deadband (:math:`|\beta_f| \le b_f / 2`),
+:math:`e_f` its deflection: a term of the follower's joint torsor, so every engine reads it where
+it reads the tree's kinematics (:func:`coupled_motions`). Statics (virtual work): the follower's
+deadband, or the coupling when it has none, holds :math:`\mu_f`, minus the generalised force of
+the loads on :math:`q_f` plus what the follower's own followers take; the leader's drive holds
+its own joint's torque plus :math:`m \mu_f`. The motor of a chain's root carries
+:math:`\sum_j (\prod m)\, \tau_j` over every joint it moves (:func:`chain_multipliers`).
 
 A passive leader (not driven) leaves both joints free but tied: the coupling is the condition
 :math:`\delta q_f = m\, \delta q_l` on their motions (a closure equation of the
@@ -26,6 +36,7 @@ import pinocchio as pin
 
 from ..errors import ModelError
 from .joints import LoopJoint, TreeJoint
+from .stiffness import elastic
 
 
 @dataclass(frozen=True)
@@ -53,6 +64,93 @@ class Coupling:
 def passive(couplings: Iterable[Coupling], joints: Mapping[str, Any]) -> tuple[Coupling, ...]:
     """The couplings whose leader is not driven (joint name -> TreeJoint ``joints``)."""
     return tuple(c for c in couplings if not joints[c.leader].driven)
+
+
+def driven(couplings: Iterable[Coupling], joints: Mapping[str, Any]) -> tuple[Coupling, ...]:
+    """The couplings whose leader is driven, leaders before their followers (a chain's links in
+    order; :func:`coupling_cycle` has refused cycles)."""
+    return tuple(c for c in in_order(couplings) if joints[c.leader].driven)
+
+
+def leader_springs(couplings: Iterable[Coupling], joints: Mapping[str, Any]) -> bool:
+    """Whether a driven leader's drive has a spring (its deflection carries its followers'
+    torques besides its own joint's, so a spring's deflection is not its joint's reaction
+    over its stiffness, :mod:`clearance_pin.equilibrium.elastic_tree`)."""
+    return any(_drive_spring(joints[c.leader]) for c in driven(couplings, joints))
+
+
+def leader_stops(couplings: Iterable[Coupling], joints: Mapping[str, Any]) -> bool:
+    """Whether a driven leader has backlash (its stop holds its motor's torque, its joint's own
+    and what it passes to its followers: a reaction split must know the coupling)."""
+    return any(joints[c.leader].clearance.backlash for c in driven(couplings, joints))
+
+
+def _drive_spring(joint: Any) -> bool:
+    directions, _ = elastic(joint.clearance)
+    return bool(joint.motion_component is not None and np.any(directions[joint.motion_component]))
+
+
+def in_order(couplings: Iterable[Coupling]) -> tuple[Coupling, ...]:
+    """The couplings with every leader's own coupling before its followers' (a chain's links in
+    order; a cycle, refused when the model is read (:func:`coupling_cycle`), is a ValueError)."""
+    left = list(couplings)
+    followers = {c.follower for c in left}
+    ordered: list[Coupling] = []
+    placed: set[str] = set()
+    while left:
+        ready = [c for c in left if c.leader not in followers or c.leader in placed]
+        if not ready:
+            raise ValueError(f"the couplings of {[c.follower for c in left]} form a cycle")
+        ordered.extend(ready)
+        placed.update(c.follower for c in ready)
+        left = [c for c in left if c not in ready]
+    return tuple(ordered)
+
+
+def coupling_cycle(couplings: Iterable[Coupling]) -> tuple[str, ...]:
+    """The joints of a cycle of couplings (a joint following itself, or j2 following j3 following
+    j2), in order; empty when there is none."""
+    leader_of = {c.follower: c.leader for c in couplings}
+    for start in leader_of:
+        path = [start]
+        while path[-1] in leader_of:
+            following = leader_of[path[-1]]
+            if following in path:
+                return tuple(path[path.index(following) :])
+            path.append(following)
+    return ()
+
+
+def coupled_motions(
+    torsors: Mapping[str, np.ndarray], couplings: tuple[Coupling, ...], joints: Mapping[str, Any]
+) -> dict[str, np.ndarray]:
+    r"""Per follower of a driven leader (``couplings`` from :func:`driven`), its joint torsor map
+    (6, n) with the coupled motion added: row ``motion_component`` gains m times the leader's
+    whole motion row, :math:`\delta q_f = m\, \delta q_l + \beta_f + e_f` (module docstring),
+    chains in order. ``torsors``: per tree joint, its own motion map x -> torsor (6, n)."""
+    total = dict(torsors)
+    for coupling in couplings:
+        follower, leader = joints[coupling.follower], joints[coupling.leader]
+        turned = total[follower.name].copy()
+        turned[follower.motion_component] += (
+            coupling.multiplier * total[leader.name][leader.motion_component]
+        )
+        total[follower.name] = turned
+    return {c.follower: total[c.follower] for c in couplings}
+
+
+def chain_multipliers(
+    couplings: Iterable[Coupling], joints: Mapping[str, Any]
+) -> dict[str, tuple[str, float]]:
+    r"""Per follower of a driven leader: (the motor at its chain's root, the product of the
+    multipliers from it) [1]: its joint's torque reaches that motor times the product (virtual
+    work of :math:`q_f = m_1 m_2 \cdots\, q_{root} + \ldots`)."""
+    held = driven(couplings, joints)
+    root: dict[str, tuple[str, float]] = {}
+    for c in held:  # leaders before followers
+        motor, factor = root.get(c.leader, (c.leader, 1.0))
+        root[c.follower] = (motor, factor * c.multiplier)
+    return root
 
 
 def coupled_joint(joints: Mapping[str, TreeJoint | LoopJoint], name: str) -> TreeJoint:
@@ -93,11 +191,24 @@ def coupled(model: pin.Model, couplings: tuple[Coupling, ...], q: np.ndarray) ->
     if not couplings:
         return q
     q = np.array(q, dtype=float)
-    for coupling in couplings:
+    for coupling in in_order(couplings):  # a chain's leaders first
         leader = model.joints[model.getJointId(coupling.leader)].idx_q
         follower = model.joints[model.getJointId(coupling.follower)].idx_q
         q[follower] = coupling.multiplier * q[leader] + coupling.offset
     return q
 
 
-__all__ = ["Coupling", "coupled", "coupled_joint", "passive", "urdf_couplings"]
+__all__ = [
+    "Coupling",
+    "chain_multipliers",
+    "coupled",
+    "coupled_joint",
+    "coupled_motions",
+    "coupling_cycle",
+    "driven",
+    "in_order",
+    "leader_springs",
+    "leader_stops",
+    "passive",
+    "urdf_couplings",
+]

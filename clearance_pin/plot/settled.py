@@ -40,6 +40,8 @@ FORMULATIONS = {"linear": "small-displacement model", "exact": "exact model"}
 CONTACT_FORCE = "contact-force"  # gid of every contact force arrow (one per active contact)
 LOAD_FORCE = "load-force"  # gid of every applied force arrow
 PLAY = "play"  # gid of every play outline
+#: a play outline drawn smaller than this fraction of the drawing is said to be invisible
+UNSEEN_PLAY = 0.003
 CONTACT_LABEL = "contact point (moving part)"
 CONTACT_FORCE_LABEL = "contact force (housing on part)"
 LOAD_LABEL = "applied force"
@@ -220,7 +222,11 @@ def _play_label(bones: Skeleton, m: float) -> str:
     if not radii:
         return "joint play (to scale, magnified)"
     drawn = f"{radii[0]:g}" if len(radii) == 1 else f"{radii[0]:g}-{radii[-1]:g}"
-    return f"joint play, to scale (c x{style.number(m)}: {drawn} mm)"
+    label = f"joint play, to scale (c x{style.number(m)}: {drawn} mm)"
+    span = float(np.ptp(bones.points, axis=0).max()) * MM  # the drawing's size [mm]
+    if radii[-1] < UNSEEN_PLAY * span:  # say why the entry has nothing to point at
+        label += ",\n  too small to see at this size"
+    return label
 
 
 def _links(ax: Any, bones: Skeleton, nominal: FloatArray, settled: FloatArray) -> None:
