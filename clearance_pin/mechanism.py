@@ -22,6 +22,7 @@ from .arguments import (
     check_load_magnitudes,
     check_solve_many,
 )
+from .deflection_check import batch_deflections, warn_answer, warn_large_deflections
 from .equilibrium.cache import SolveCache
 from .equilibrium.formulation import solve_case
 from .equilibrium.negligible_play import rigid_negligible_plays
@@ -29,6 +30,7 @@ from .equilibrium.options import SolveKeywords, SolveOptions
 from .equilibrium.resolver import solve_by_resolver
 from .equilibrium.result import Equilibrium
 from .errors import (
+    ArgumentError,
     ClearancePinError,
     LoadError,
     ModelError,
@@ -38,6 +40,7 @@ from .errors import (
 from .kinematics.loop_frames import eccentricity_problems, loop_joint_frames
 from .kinematics.placements import placements_without_data
 from .model import plausibility
+from .model.clearance import U
 from .model.couplings import Coupling, coupled
 from .model.dimensions import Dimension
 from .model.footprint import DATA_KEPT_UP_TO, check_fits, data_bytes
@@ -51,6 +54,7 @@ if TYPE_CHECKING:
     from .equilibrium.resolver import Resolver
 
 Joint = TypeVar("Joint", TreeJoint, LoopJoint)
+LOCK_TOLERANCE = 1e-9  # [rad or m] a configuration's departure from a lock's value, refused beyond
 
 
 @dataclass(frozen=True)
@@ -251,12 +255,15 @@ class Mechanism:
         """
         from .kinematics.closure import close_loops, closure_residual, follow_branch
 
+        given = q is not None
         q = self.q_nominal if q is None else np.asarray(q, dtype=float)
         if q.shape != (self.model.nq,) or not np.all(np.isfinite(q)):
             raise ClearancePinError(
                 f"configuration must be {self.model.nq} finite numbers, got shape {q.shape}"
             )
         q = coupled(self.model, self.couplings, q)  # followers from their leaders
+        if given:
+            self.check_locks(q)
         if self._without_data:  # a long tree: nothing to close
             oMi, oMf = placements_without_data(self.model, q)
             return Configuration(q.copy(), oMi, oMf, {}, {})
@@ -301,6 +308,33 @@ class Mechanism:
         bMc = {name: pair[1] for name, pair in frames.items()}
         loops = {loop.name: (loop.frame_a, loop.frame_b) for loop in self.loop_joints}
         return Configuration(q.copy(), oMi, oMf, aMc, bMc, loops)
+
+    def check_locks(self, q: ArrayLike, argument: str = "q") -> None:
+        """Refuse a configuration ``q`` (nq,) that gives a locked joint (a ``<lock>``: held where
+        it is, at its nominal value) another value than its lock's, to ``LOCK_TOLERANCE``
+        [rad or m] (a continuous joint's angle compared modulo a turn).
+
+        Raises:
+            ArgumentError: naming ``argument``, the joint, its lock's value and the value given.
+        """
+        locked = [joint for joint in self.tree_joints if joint.locked]
+        if not locked:
+            return
+        q = coupled(self.model, self.couplings, np.asarray(q, dtype=float))
+        for joint in locked:
+            held, value = (_joint_value(self.model, joint.joint_id, c) for c in (self.q_nominal, q))
+            difference = value - held
+            if self.model.joints[joint.joint_id].nq == 2:  # a continuous joint: cos, sin
+                difference = (difference + np.pi) % (2.0 * np.pi) - np.pi
+            if not abs(difference) <= LOCK_TOLERANCE:
+                unit = "m" if joint.motion_component == U else "rad"
+                raise ArgumentError(
+                    argument,
+                    f"{joint.name!r} at its lock's value {held:.12g} {unit} (a locked joint is "
+                    "held where it is)",
+                    f"{joint.name}={value:.12g} {unit}",
+                    "give it its lock's value, or remove its <lock> to move it",
+                )
 
     def _closed_start(self, q: np.ndarray) -> np.ndarray | None:
         """The closed configuration nearest to ``q`` in the driven joints (None before loading)."""
@@ -420,12 +454,19 @@ class Mechanism:
             # a planner's loop: the resolver of these loaded points, from their second solve
             answer = solve_by_resolver(self, loads)  # type: ignore[arg-type]  # a list or tuple
             if answer is not None:
+                if answer.deflections:
+                    warn_answer(self, answer)
                 return answer
         chosen = SolveOptions.of(options)
         configuration = check_case(self, loads, q)
+        if configuration is not None:
+            self.check_locks(configuration)
         resolved = self.resolve_loads(loads, chosen.gravity)
         check_load_magnitudes(resolved)
-        return solve_case(self, resolved, configuration, chosen)
+        answer = solve_case(self, resolved, configuration, chosen)
+        if answer.deflections:  # a spring of the wrong unit: judged after the solve
+            warn_answer(self, answer)
+        return answer
 
     def envelope(
         self, output: Any, q: ArrayLike | None = None, exact: bool = False, **options: Any
@@ -472,6 +513,8 @@ class Mechanism:
         those of :meth:`solve`)."""
         from .equilibrium.resolver import Resolver
 
+        if q is not None:
+            self.check_locks(np.asarray(q, dtype=float))
         return Resolver(self, loads, q, SolveOptions.of(options))
 
     def solve_many(
@@ -500,11 +543,16 @@ class Mechanism:
         refused = check_solve_many(
             self, loads, configurations, errors, executor, chunks, chosen.gravity
         )
+        if configurations is not None and any(j.locked for j in self.tree_joints):
+            configurations = list(configurations)
+            for index, pose in enumerate(configurations):
+                if pose is not None:
+                    self.check_locks(pose, f"configurations[{index}]")
         cases = list(loads) if refused and loads is not None else []
         poses = None if configurations is None or not refused else list(configurations)
         if refused and (poses is None or len(poses) == len(cases)):
             # errors="return": cases whose loads double precision does not carry are not solved
-            return with_refused(
+            batch = with_refused(
                 self,
                 len(cases),
                 refused,
@@ -513,10 +561,14 @@ class Mechanism:
                     chosen, executor=executor, chunks=chunks, errors=errors, progress=progress,
                 ),
             )  # fmt: skip
-        return solve_many(
-            self, loads, configurations, chosen,
-            executor=executor, chunks=chunks, errors=errors, progress=progress,
-        )  # fmt: skip
+        else:
+            batch = solve_many(
+                self, loads, configurations, chosen,
+                executor=executor, chunks=chunks, errors=errors, progress=progress,
+            )  # fmt: skip
+        if stiff_joints(self.joints):  # a spring of the wrong unit: once per call
+            warn_large_deflections(self, batch_deflections(self, batch), batch=True)
+        return batch
 
     def joint(self, name: str) -> TreeJoint | LoopJoint:
         """The tree or loop joint called ``name``."""
@@ -531,6 +583,14 @@ class Mechanism:
             f"Mechanism({self.name!r}: {len(self.tree_joints)} tree joints, "
             f"{len(self.loop_joints)} loop joints, {len(self.loads)} loads)"
         )
+
+
+def _joint_value(model: pin.Model, joint_id: int, q: np.ndarray) -> float:
+    """A 1-DOF joint's value in ``q`` [rad or m]: a continuous joint's angle from its cos, sin."""
+    joint = model.joints[joint_id]
+    if joint.nq == 2:
+        return float(np.arctan2(q[joint.idx_q + 1], q[joint.idx_q]))
+    return float(q[joint.idx_q])
 
 
 def _warn_stiffness_left_out(mechanism: Mechanism, what: str) -> None:

@@ -105,7 +105,8 @@ def run(args: argparse.Namespace) -> int:
 
 def random_poses(mechanism: Any, count: int, half_range: float, seed: int) -> np.ndarray:
     """``count`` poses: each driven joint's command uniform within ``half_range`` [rad or m] of
-    its nominal value and inside its limits; the other coordinates nominal."""
+    its nominal value and inside its limits; the other coordinates nominal (a locked joint's
+    too: a pose may not move it off its lock)."""
     if count < 1:
         raise ArgumentError("--poses", "at least 1", count)
     if not half_range >= 0.0:
@@ -114,7 +115,7 @@ def random_poses(mechanism: Any, count: int, half_range: float, seed: int) -> np
     poses = np.tile(mechanism.q_nominal, (count, 1))
     rng = np.random.default_rng(seed)
     for joint in mechanism.tree_joints:
-        if not joint.driven or model.joints[joint.joint_id].nq != 1:
+        if not joint.driven or joint.locked or model.joints[joint.joint_id].nq != 1:
             continue
         index = model.joints[joint.joint_id].idx_q
         low = max(model.lowerPositionLimit[index], poses[0, index] - half_range)

@@ -9,8 +9,10 @@ compiled kernel, the NumPy batch) and each spring's deflection under its joint's
 with :math:`R_j` (N, 6) the wrench the parent exerts on the child through joint j in its
 clearance frame, read for every case at once from the twin's batch (statics of the subtree: the
 same with or without springs in a tree), and :math:`K_j^{+}` the compliance on the directions that
-deflect (:func:`.elastic_tree.spring_deflections`). A joint's torsor is its play's plus
-:math:`e_j`; the bodies' twists are composed from the torsors along the tree
+deflect (:func:`.elastic_tree.spring_deflections`; a K stated in the housing's frame is
+turned into the part's at each case's pose, :math:`-G^T K^+ G R_j`,
+:mod:`~clearance_pin.model.stiffness`). A joint's torsor is its play's plus :math:`e_j`;
+the bodies' twists are composed from the torsors along the tree
 (:func:`.batch_answers.torsor_twists`); the energy is the play's less
 :math:`\tfrac12 \sum_j e_j^T K_j e_j`. Reactions, contact forces and drive torques are the twin's.
 An item is assembled when read, as a single solve assembles it (:func:`.elastic_tree.superposed`).
@@ -25,13 +27,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..model.stiffness import elastic
+from ..model.stiffness import elastic, turning
 from ..numerics import Array, Mask
 from .batch import EquilibriumBatch
 from .batch_answers import torsor_twists
 from .batch_kinematics import body_placements
 from .batch_reactions import in_frame, subtree_statics_hold, tree_reactions
-from .elastic_tree import play_twin, spring_deflections, superposed, superposed_status
+from .elastic_tree import play_twin, spring_deflections, superposed, superposed_status, turned
 from .method import NO_LOAD_STATUS, Method
 from .options import SolveOptions
 from .prepared import prepared_geometry
@@ -141,11 +143,30 @@ class ElasticTreeBatch(EquilibriumBatch):
         stiff = [joint for joint in mechanism.tree_joints if elastic(joint.clearance)[1].size]
         self._placed = _placements(mechanism, cases.configurations)
         reactions = tree_reactions(mechanism, cases.load_column(), options.gravity, *self._placed)
+        housing = {joint.name for joint in turning(stiff)}  # K turned per case: its G
+        self._turns = {name: self._part_turns(mechanism.joints[name]) for name in housing}
         self._springs = {
-            joint.name: spring_deflections(joint, reactions[joint.name]) for joint in stiff
+            joint.name: spring_deflections(
+                joint, reactions[joint.name], self._turns.get(joint.name)
+            )
+            for joint in stiff
         }
         self._started = started
         super().__init__([self._item_builder(i) for i in range(len(play))])
+
+    def _part_turns(self, joint: Any) -> Array:
+        """Per case (K, 3, 3) the part's rotation relative to its housing, clearance-frame axes
+        (:func:`~clearance_pin.model.stiffness.part_rotation` on the cases' placements)."""
+        rotations = self._placed[0]
+        model = self.mechanism.model
+        i = joint.joint_id
+        placement = np.asarray(model.jointPlacements[i].rotation)
+        own = np.einsum(
+            "ba,kcb,kcd->kad", placement, rotations[:, int(model.parents[i])], rotations[:, i]
+        )  # M_J^T R_p^T R_i
+        C = joint.rotation
+        turns: Array = np.einsum("ba,kbc,cd->kad", C, own, C)  # C^T own C
+        return turns
 
     def _item_builder(self, index: int) -> Any:
         def build() -> Any:
@@ -250,7 +271,10 @@ class ElasticTreeBatch(EquilibriumBatch):
         energy = np.array(self.play.energy, dtype=float)
         for name, spring in self._springs.items():
             directions, stiffnesses = elastic(self.mechanism.joints[name].clearance)
-            coordinates = spring @ directions  # e along each deflecting direction
+            if name in self._turns:  # K in the housing's axes: e there, G e
+                coordinates = turned(self._turns[name], spring) @ directions
+            else:
+                coordinates = spring @ directions  # e along each deflecting direction
             energy -= 0.5 * (coordinates**2 * stiffnesses).sum(axis=1)
         return energy
 

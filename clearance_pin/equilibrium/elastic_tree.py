@@ -96,16 +96,37 @@ def superposed_status(play: str, alone: bool) -> str:
     )
 
 
-def spring_deflections(joint: Any, reactions: np.ndarray) -> np.ndarray:
+def spring_deflections(
+    joint: Any, reactions: np.ndarray, turns: np.ndarray | None = None
+) -> np.ndarray:
     r"""The deflection (N, 6) [m, rad] of ``joint``'s spring under its reactions (N, 6) [N, N m]
     (the parent's wrench on the child, clearance frame): :math:`e = -K^+ W`, K's inverse on the
     directions that deflect. In a tree this is the :math:`e_i = -g_i / k_i` of the module
     docstring, from the joint's reactions (a batch reads them from the statics of each joint's
-    subtree, :func:`.batch_reactions.tree_reactions`)."""
+    subtree, :func:`.batch_reactions.tree_reactions`). ``turns`` (N or 1, 3, 3): per case the
+    part's rotation R relative to its housing (:func:`~clearance_pin.model.stiffness.
+    part_rotation`) for a K stated in the housing's frame, :math:`e = -G^T K^+ G W` with
+    :math:`G = \mathrm{diag}(R, R)`; None: K in the clearance frame as it is."""
     directions, stiffnesses = elastic(joint.clearance)
     compliance = directions @ (directions.T / stiffnesses[:, None])
-    deflections: np.ndarray = -reactions @ compliance.T
-    return deflections
+    if turns is None:
+        deflections: np.ndarray = -reactions @ compliance.T
+        return deflections
+    housing = turned(turns, reactions)  # G W: the wrench in the housing's axes
+    return turned(turns, -housing @ compliance.T, back=True)
+
+
+def turned(turns: np.ndarray, rows: np.ndarray, back: bool = False) -> np.ndarray:
+    """Rows (N, 6) of torsors or wrenches turned by G = diag(R, R) per case (``back``: by
+    G^T), ``turns`` (N or 1, 3, 3)."""
+    spec = "kji,kj->ki" if back else "kij,kj->ki"
+    count = max(len(turns), len(rows))
+    turns = np.broadcast_to(turns, (count, 3, 3))
+    rows = np.broadcast_to(rows, (count, 6))
+    out: np.ndarray = np.concatenate(
+        [np.einsum(spec, turns, rows[:, :3]), np.einsum(spec, turns, rows[:, 3:])], axis=1
+    )
+    return out
 
 
 __all__ = ["play_twin", "spring_deflections", "superposed", "superposed_status"]

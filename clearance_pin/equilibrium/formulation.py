@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import ClearancePinError, NearSingularError, SolverError
+from ..model.stiffness import in_part_frame, part_rotation, turned_stiffness, turning
+from .cache import LeastRecentlyUsed
 from .options import SolveOptions
 from .outputs import resolve_outputs
 from .result import Equilibrium
@@ -46,6 +48,41 @@ def solve_with_options(mechanism: Any, loads: Any, q: Any, options: SolveOptions
     resolved = mechanism.resolve_loads(loads, options.gravity)
     configuration = None if q is None else np.asarray(q, dtype=float)
     return solve_case(mechanism, resolved, configuration, options)
+
+
+def _part_stiffness_twin(mechanism: Any, linear: Equilibrium) -> Any:
+    """The mechanism the exact model solves: ``mechanism`` itself, or, when a joint's K is stated
+    in the housing's frame, is not symmetric about its axis and the joint has turned at the
+    answer's configuration, the same mechanism with that K turned into the part's frame there,
+    :math:`G^T K G` (:func:`~clearance_pin.model.stiffness.elastic_at`), so that the exact
+    model, whose springs' directions are fixed in the part, reads the same K as the
+    small-displacement one. Kept per configuration (the last 8) on the mechanism's cache."""
+    joints = turning(mechanism.tree_joints)
+    if not joints:
+        return mechanism
+    placed = linear.configuration.oMi  # type: ignore[attr-defined]
+    names = set(turned_stiffness(joints, mechanism.model, placed))
+    if not names:
+        return mechanism
+    rotations = {
+        joint.name: part_rotation(mechanism.model, joint, placed)
+        for joint in joints
+        if joint.name in names
+    }
+    key = b"".join(rotations[name].tobytes() for name in sorted(rotations))
+    twins = mechanism.cache.__dict__.setdefault("part_stiffness_twins", LeastRecentlyUsed(8))
+    twin = twins.get(key)
+    if twin is None:
+
+        def in_part(joint: Any) -> Any:
+            if joint.name not in rotations:
+                return joint
+            clearance = in_part_frame(joint.clearance, rotations[joint.name])  # G^T K G
+            return replace(joint, clearance=clearance)
+
+        tree = tuple(in_part(joint) for joint in mechanism.tree_joints)
+        twin = twins[key] = mechanism._rebuilt(mechanism.model, tree, mechanism.loop_joints)
+    return twin
 
 
 def _formulated(
@@ -107,8 +144,9 @@ def exact_from_linear(
     (CasADi loads then, not at import)."""
     from .exact import solve_exact_model
 
-    answer: Equilibrium = solve_exact_model(mechanism, loads, q, linear, tol, from_nominal)
-    return answer
+    solved = _part_stiffness_twin(mechanism, linear)  # a housing K turned at q: its twin's
+    answer: Equilibrium = solve_exact_model(solved, loads, q, linear, tol, from_nominal)
+    return answer if solved is mechanism else replace(answer, mechanism=mechanism)
 
 
 __all__ = ["exact_from_linear", "solve_case", "solve_with_options"]

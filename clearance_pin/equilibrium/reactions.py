@@ -60,7 +60,7 @@ from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..model.clearance import ALPHA, BETA, GAMMA
 from ..model.couplings import coupled_joint, driven, passive
 from ..model.joints import LoopJoint, TreeJoint
-from ..model.stiffness import elastic
+from ..model.stiffness import elastic_at
 from ..numerics import Array, null_space
 from .load_terms import gather_body_loads
 from .poses import ClearanceFrames, clearance_frames
@@ -330,7 +330,8 @@ def _spring_equations(
         deflection = (equilibrium.deflections or {}).get(name)
         if deflection is None:
             continue
-        directions, stiffnesses = elastic(joint.clearance)
+        placed = cast("Configuration", equilibrium.configuration).oMi
+        directions, stiffnesses = elastic_at(joint, mechanism.model, placed)  # as the maps'
         spring = -directions @ (stiffnesses * (directions.T @ deflection))  # -K e, local
         carried = joint_frames[name].actInv(pin.Force(contact[name])).vector
         row = np.zeros((directions.shape[1], len(owners)))

@@ -30,8 +30,10 @@ from ..arguments import (
     check_errors,
     check_load_magnitudes,
 )
+from ..deflection_check import batch_deflections, warn_answer, warn_large_deflections
 from ..errors import ArgumentError, ClearancePinError, SolverError
 from ..model.loads import PointForce, Torque, with_vector
+from ..model.stiffness import stiff_joints
 from .blocks import block_structure
 from .cone_solver import clarabel_available
 from .fast_path import BoundLoads, FastTerms, fast_terms, kernel_installed
@@ -115,7 +117,10 @@ class Resolver:
         largest = float(np.abs(vector).max())
         if largest > self._largest_value or 0.0 < largest < SMALLEST_LOAD:
             check_load_magnitudes(self._loads_with(vector), "values")
-        return self._solve(vector, functools.partial(self._loads_with, vector))
+        answer = self._solve(vector, functools.partial(self._loads_with, vector))
+        if answer.deflections:  # a spring of the wrong unit (Mechanism.solve's own lane warns)
+            warn_answer(self.mechanism, answer)
+        return answer
 
     def solve_loads(
         self, loads: Sequence[PointForce | Torque], vector: np.ndarray | None = None
@@ -223,9 +228,13 @@ class Resolver:
                 progress=progress,
             )
 
-        if refused:  # errors="return": the rows refused take their cases' places
-            return with_refused(self.mechanism, len(vectors), refused, solved)
-        return solved()
+        # errors="return": the rows refused take their cases' places
+        batch = with_refused(self.mechanism, len(vectors), refused, solved) if refused else solved()
+        if stiff_joints(self.mechanism.joints):  # a spring of the wrong unit: once per call
+            warn_large_deflections(
+                self.mechanism, batch_deflections(self.mechanism, batch), batch=True
+            )
+        return batch
 
     def _vectors(
         self, values: Any, refuse: bool
@@ -274,7 +283,11 @@ class Resolver:
         if not poses:
             raise ArgumentError("configurations", "at least one configuration", configurations)
         own = self.mechanism.q_nominal if self._q is None else self._q
-        return [np.asarray(own if q is None else q, dtype=float) for q in poses]
+        checked = [np.asarray(own if q is None else q, dtype=float) for q in poses]
+        if any(joint.locked for joint in self.mechanism.tree_joints):
+            for index, q in enumerate(checked):
+                self.mechanism.check_locks(q, f"configurations[{index}]")
+        return checked
 
     def _resolve_compiled(
         self, vector: np.ndarray, loads_of: Callable[[], tuple[Any, ...]]

@@ -36,7 +36,7 @@ import pinocchio as pin
 
 from ..model.couplings import Coupling, coupled_motions
 from ..model.joints import LoopJoint, TreeJoint
-from ..model.stiffness import elastic
+from ..model.stiffness import elastic, elastic_at
 from ..numerics import null_space
 
 
@@ -142,7 +142,7 @@ def build_maps(
 
     for joint in tree_joints:
         basis = tree_joint_basis(joint)
-        deflections, values = elastic(joint.clearance)
+        deflections, values = elastic_at(joint, model, data.oMi)  # K in its frame at q
         start = add_columns(joint.name, basis, np.zeros(basis.shape[1]))
         add_columns(joint.name, deflections, values)
         columns_of[joint.joint_id] = (start, len(variable_joint))

@@ -38,7 +38,7 @@ from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint, rotatio
 from .length_check import Kind, Length, check_lengths
 from .loads import Gravity, PointForce, Torque
 from .reference_sizes import Geometry, Shape
-from .stiffness import STIFFNESS_ATTRIBUTES, as_entries, stiffness_matrix
+from .stiffness import STIFFNESS_ATTRIBUTES, STIFFNESS_FRAMES, as_entries, stiffness_matrix
 from .xml_values import UNITS, label_of, labelled, number, vector
 
 BLOCK = "clearance_pin"
@@ -54,12 +54,13 @@ CLEARANCE_ATTRIBUTES = {
 }
 LENGTH_ATTRIBUTES = {*CLEARANCE_ATTRIBUTES, "diametral_clearance"}  # in the block's unit
 JOINT_ATTRIBUTES = {
-    "name", "type", "driven", "backlash", "q", "axis", *LENGTH_ATTRIBUTES, *STIFFNESS_ATTRIBUTES
+    "name", "type", "driven", "backlash", "q", "axis", *LENGTH_ATTRIBUTES, *STIFFNESS_ATTRIBUTES,
+    "stiffness_frame",
 }  # fmt: skip
 DEFAULT_ATTRIBUTES = (JOINT_ATTRIBUTES - {"name", "q"}) | {"joint_type"}
 LOOP_ATTRIBUTES = {
     "name", "type", "frame_a", "frame_b", "axis", *LENGTH_ATTRIBUTES,
-    *(a for a in STIFFNESS_ATTRIBUTES if a != "drive_stiffness"),
+    *(a for a in STIFFNESS_ATTRIBUTES if a != "drive_stiffness"), "stiffness_frame",
 }  # fmt: skip
 # URDF joint types a <default> may name; "revolute" also covers continuous joints
 DEFAULT_TYPES = ("revolute", "continuous", "prismatic", "floating")
@@ -488,7 +489,9 @@ class _BlockReader:
                     )
                 self.nominal_given[joint_id] = value
                 set_nominal(self.source, label, model, joint_id, q, value)
-            joints.append(TreeJoint(name, joint_id, clearance, rotation_x_to(axis), motion, driven))
+            locked = name in self.locked
+            axes = rotation_x_to(axis)
+            joints.append(TreeJoint(name, joint_id, clearance, axes, motion, driven, locked))
         self.couplings = tuple(
             c.absolute(model, drawn_configuration(model)) for c in self.joints.couplings
         )
@@ -571,10 +574,31 @@ class _BlockReader:
         label: str,
         clearance: Clearance,
         drive_component: int | None,
+        loop: bool = False,
     ) -> Clearance:
         """``clearance`` with the joint's stiffness attributes (SI, whatever the block's unit:
-        :mod:`.stiffness`); ``drive_component``: what a driven joint's drive moves (None: not
-        driven)."""
+        :mod:`.stiffness`) and the frame K is fixed in (``stiffness_frame``: ``housing`` or
+        ``part``; a loop joint's is its housing's); ``drive_component``: what a driven joint's
+        drive moves (None: not driven)."""
+        frame = None if element is None else element.get("stiffness_frame")
+        if frame is not None:
+            if frame not in STIFFNESS_FRAMES:
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"stiffness_frame={frame!r}: expected one of {', '.join(STIFFNESS_FRAMES)} "
+                    "(the part K is fixed in: the housing, the parent's side, or the moving "
+                    "part, the child's side)",
+                )
+            if loop and frame == "part":
+                raise ModelError(
+                    self.source,
+                    label,
+                    'stiffness_frame="part" on a loop joint: its clearance frame keeps the '
+                    "housing's axes (frame_a's) about the spin, so its K is the housing's; "
+                    'remove the attribute (or write "housing")',
+                )
+            clearance = replace(clearance, stiffness_frame=frame)
         if element is None or not any(element.get(a) is not None for a in STIFFNESS_ATTRIBUTES):
             return clearance
         values = {
@@ -635,7 +659,7 @@ class _BlockReader:
                 raise ModelError(self.source, label, f"needs a type, one of {KINDS}")
             bodies = tuple(int(model.frames[f].parentJoint) for f in frames)
             clearance = self._with_stiffness(
-                element, label, self._clearance(element, label, kind, bodies), None
+                element, label, self._clearance(element, label, kind, bodies), None, loop=True
             )
             axis = self._vector(element, "axis", default=(1.0, 0.0, 0.0))
             joints.append(LoopJoint(name, frames[0], frames[1], clearance, rotation_x_to(axis)))

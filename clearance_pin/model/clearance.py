@@ -141,6 +141,9 @@ class Clearance:
             contact ``"backlash"`` on its own motion (0: the drive holds it rigidly).
         stiffness: K (6, 6) in the clearance frame as nested tuples [N/m, N m/rad], an elastic
             deflection in series with the play (:mod:`.stiffness`); None: rigid.
+        stiffness_frame: which part K is fixed in: ``"housing"`` (the parent's side: K does not
+            turn with the joint's own angle; default) or ``"part"`` (the child's side: K turns
+            with it). The same for a K symmetric about the joint's axis (:mod:`.stiffness`).
     """
 
     kind: str
@@ -152,6 +155,7 @@ class Clearance:
     height: float = 0.0
     backlash: float = 0.0
     stiffness: tuple[tuple[float, ...], ...] | None = None
+    stiffness_frame: str = "housing"
     contacts: tuple[ContactPoint, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -161,6 +165,10 @@ class Clearance:
             _check_nonnegative(name, getattr(self, name))
         if self.play_z is not None:
             _check_nonnegative("play_z", self.play_z)
+        if self.stiffness_frame not in ("housing", "part"):
+            raise NotFoundError(
+                "stiffness frame", self.stiffness_frame, ("housing", "part"), "stiffness_frame"
+            )
         if self.kind in ("cylindrical", "revolute", "prismatic") and not self.length > 0.0:
             raise ArgumentError(
                 f"Clearance({self.kind!r}, length)",

@@ -56,7 +56,7 @@ from .xml_values import labelled
 # clearances=... of clearance_pin.load and from_model: a clearance file, or a dict (SI)
 ClearanceSource: TypeAlias = str | os.PathLike[str] | Mapping[str, Any] | None
 
-STRING_KEYS = {"type", "frame_a", "frame_b", "link", "joint", "grade"}
+STRING_KEYS = {"type", "frame_a", "frame_b", "link", "joint", "grade", "stiffness_frame"}
 BOOLEAN_KEYS = {"driven", "enabled"}
 VECTOR_KEYS = {"axis", "point", "value", "direction", "rotation_axis", "stiffness"}
 NUMBER_KEYS = {

@@ -31,6 +31,8 @@ class TreeJoint:
         motion_component: torsor component that the URDF joint moves (``ALPHA`` for revolute and
             continuous joints, ``U`` for prismatic ones, None for floating joints).
         driven: the joint's own motion is locked (an actuated joint held by its drive).
+        locked: a ``<lock>`` holds it at its nominal value (a rigid joint the study leaves out):
+            a configuration giving it another value is refused.
     """
 
     name: str
@@ -39,6 +41,7 @@ class TreeJoint:
     rotation: np.ndarray
     motion_component: int | None
     driven: bool
+    locked: bool = False
 
     @property
     def locked_components(self) -> tuple[int, ...]:

@@ -5,8 +5,9 @@
 prismatic joint): the outputs' deviation (length of the translation [um]), the contact forces [N]
 and the contact modes, one row per contact point, dark where it touches. A *contact mode* is the
 set of touching points, each with its side for a slab contact (the two faces of a guide, the two
-shoulders of an axial play); where it changes along the trajectory (:func:`contact_modes`) the
-panels are shaded in alternate bands and the change is marked.
+shoulders of an axial play, the two stops of a drive's backlash); where it changes along the
+trajectory (:func:`contact_modes`) the panels are shaded in alternate bands and the change is
+marked.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
 
 FloatArray = npt.NDArray[np.float64]
 
+BACKLASH_STOP = "backlash"  # the contact point of a drive's lost motion (model.clearance)
 MAX_FORCE_LINES = 10  # more contact points than this: one line per joint (its largest contact)
 BAND = "0.92"  # shading of every other contact mode
 
@@ -43,14 +45,18 @@ class ContactModes:
     Attributes:
         labels: every contact point that touches somewhere (``joint:point``), in model order.
         touching: per case and label, 0 free, +1 / -1 touching (the face a slab contact rests
-            on: the sign of its displacement along the bounded axis, opposite to its force; +1
-            for a ball or disc), (N, len(labels)); NaN for a failed case.
+            on: the sign of its displacement along the bounded axis, opposite to its force; for
+            a drive's backlash stop the sign of its turn, opposite to the stop's moment about
+            the axis; +1 for a ball or disc), (N, len(labels)); NaN for a failed case.
         modes: per case, the index of its mode (its touching set) in order of appearance; -1
             for a failed case.
         changes: indices i where case i's mode differs from case i - 1's, or where a ball, disc
             or journal-end contact's force turns by more than 90 deg from case i - 1's (the part
             flips across its play: :attr:`flips`); failed cases skipped.
         flips: per change in :attr:`changes` made by such a turn, (i, the contacts that turned).
+        stops: per change in :attr:`changes` where a drive's backlash stop switches side (the
+            joint's load torque changed sign: the joint crosses its whole backlash at once),
+            (i, the stops that switched).
     """
 
     labels: tuple[str, ...]
@@ -58,6 +64,7 @@ class ContactModes:
     modes: npt.NDArray[np.int64]
     changes: tuple[int, ...]
     flips: tuple[tuple[int, tuple[str, ...]], ...] = ()
+    stops: tuple[tuple[int, tuple[str, ...]], ...] = ()
 
 
 def contact_modes(batch: Sequence[Equilibrium | Exception]) -> ContactModes:
@@ -77,12 +84,15 @@ def contact_modes(batch: Sequence[Equilibrium | Exception]) -> ContactModes:
             by_label = {c.label: c for c in item.contacts}
             for k, label in enumerate(labels):
                 contact = by_label[label]
-                touching[i, k] = _side(contact.force, shapes[label]) if contact.active else 0.0
+                touching[i, k] = _side(_pushed(contact), shapes[label]) if contact.active else 0.0
     modes = np.full(len(items), -1, dtype=np.int64)
     seen: dict[bytes, int] = {}
     changes: list[int] = []
     flips: list[tuple[int, tuple[str, ...]]] = []
+    stops: list[tuple[int, tuple[str, ...]]] = []
+    stop_columns = [k for k, label in enumerate(labels) if label.endswith(":" + BACKLASH_STOP)]
     previous: int | None = None
+    last_row: FloatArray | None = None
     before: Equilibrium | None = None
     for i, row in enumerate(touching):
         if np.isnan(row).any():
@@ -95,8 +105,14 @@ def contact_modes(batch: Sequence[Equilibrium | Exception]) -> ContactModes:
             flips.append((i, turned))
         if previous is not None and (mode != previous or turned):
             changes.append(i)
-        previous, before = mode, item
-    return ContactModes(labels, touching, modes, tuple(changes), tuple(flips))
+            assert last_row is not None
+            switched = tuple(
+                labels[k] for k in stop_columns if row[k] * last_row[k] < 0.0
+            )  # touching on both sides: -1 then +1 or +1 then -1
+            if switched:
+                stops.append((i, switched))
+        previous, before, last_row = mode, item, row
+    return ContactModes(labels, touching, modes, tuple(changes), tuple(flips), tuple(stops))
 
 
 def flipped(
@@ -127,9 +143,17 @@ def _touches(item: Equilibrium, label: str) -> bool:
     return any(c.label == label and c.active for c in item.contacts)
 
 
+def _pushed(contact: Any) -> FloatArray:
+    """What a contact transmits, whose sign along the bounded axis tells its side: the force of
+    a point contact [N], the moment about the axis of a revolute drive's backlash stop [N m]
+    (its force is zero: :attr:`~clearance_pin.equilibrium.result.Contact.moment`)."""
+    return np.asarray(contact.force if contact.moment is None else contact.moment, dtype=float)
+
+
 def _side(force: FloatArray, shape: tuple[str, tuple[int, ...]]) -> float:
     """+1 / -1: the face a slab contact rests on (+1: its displacement is along +y, the face at
-    +c, where the housing pushes it towards -y); +1 for a disc or ball."""
+    +c, where the housing pushes it towards -y; a backlash stop: turned by +b/2, its moment
+    about the axis negative); +1 for a disc or ball. ``force``: :func:`_pushed`."""
     kind, components = shape
     if kind != "abs":
         return 1.0
