@@ -235,7 +235,10 @@ def accuracy_map(
     ]
     found = blocks_of(mechanism)
     if found is not None:
-        solved = _tree_route(mechanism, found, frame, poses, cases, loaded, gravity)
+        masses = [_mass(payload) for payload in _listed(payloads)]
+        link, where = _hanging_point(mechanism, output, point)
+        unit = [PointForce(link, [0.0, 0.0, -STANDARD_GRAVITY], where)]  # 1 kg
+        solved = _tree_route(mechanism, found, frame, poses, cases, loaded, gravity, masses, unit)
     else:
         levers = joint_levers(model, mechanism.tree_joints, frame, poses)
         solved = _general_route(mechanism, poses, cases, loaded, gravity, levers)
@@ -278,6 +281,8 @@ def _tree_route(
     cases: list[list[Any]],
     loaded: list[bool],
     gravity: Any,
+    masses: list[float | None],
+    unit: list[Any],
 ) -> Solved:
     """Every pose and loaded payload at once (:mod:`.tree_map`), the reach from the groups each
     case leaves unloaded (:mod:`.reach`); a payload without any load leaves every group free."""
@@ -287,7 +292,13 @@ def _tree_route(
     levers = tree_levers(mechanism, frame, placed)
     solved = [k for k in range(payloads) if loaded[k]]
     chosen = [cases[k] for k in solved]
-    answers = tree_cases(mechanism, found, poses, chosen, gravity, placed) if solved else None
+    answers = (
+        tree_cases(
+            mechanism, found, poses, chosen, gravity, placed, [masses[k] for k in solved], unit
+        )
+        if solved
+        else None
+    )
     groups = len(structure.group_rows)
     unloaded = np.ones((payloads, count, groups), dtype=bool)
     ok = np.ones((payloads, count), dtype=bool)
@@ -313,11 +324,9 @@ def _tree_route(
     directions = row_directions(units, levers)  # (Q, R, 3)
     row_group = structure.contact_group[structure.row_contact]
     free_rows = unloaded[:, :, row_group].transpose(1, 0, 2).reshape(count * payloads, -1)
+    pose = np.repeat(np.arange(count), payloads)  # the cases in (Q, P) order
     reached = reach(
-        translation.reshape(-1, 3),
-        np.repeat(directions, payloads, axis=0),
-        structure.row_bound,
-        free_rows,
+        translation.reshape(-1, 3), directions, pose, structure.row_bound, free_rows
     ).reshape(count, payloads)
     contacts = prepared.geometry.contacts
     free = {}
@@ -445,6 +454,16 @@ def _configurations(configurations: Any, nq: int) -> np.ndarray:
     if not np.isfinite(poses).all():
         raise ArgumentError("configurations", "finite joint values", "a NaN or infinity")
     return poses
+
+
+def _listed(payloads: Any) -> list[Any]:
+    """The payloads as a list (one given alone: a list of it)."""
+    return [payloads] if isinstance(payloads, (int, float, PointForce, Torque)) else list(payloads)
+
+
+def _mass(payload: Any) -> float | None:
+    """A payload's mass [kg], None for a load case."""
+    return float(payload) if isinstance(payload, (int, float)) else None
 
 
 def _payload_cases(

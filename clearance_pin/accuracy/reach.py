@@ -46,29 +46,39 @@ def row_directions(
 
 
 def reach(
-    settled: np.ndarray, directions: np.ndarray, bounds: np.ndarray, free: np.ndarray
+    settled: np.ndarray,
+    directions: np.ndarray,
+    pose: np.ndarray,
+    bounds: np.ndarray,
+    free: np.ndarray,
 ) -> np.ndarray:
     r"""The largest distance [m] of the output from its nominal place, (N,): ``settled`` (N, 3)
-    [m], ``directions`` (N, R, 3) (:func:`row_directions` per case), ``bounds`` (R,) [m], the
-    half-range of each row, ``free`` (N, R) the rows free in each case (module docstring)."""
-    out: np.ndarray = np.linalg.norm(settled, axis=1)
+    [m], ``directions`` (Q, R, 3) (:func:`row_directions`), ``pose`` (N,) each case's pose,
+    ``bounds`` (R,) [m] the half-range of each row, ``free`` (N, R) the rows free in each case
+    (module docstring)."""
+    out: np.ndarray = np.sqrt((settled * settled).sum(axis=1))
     packed = np.ascontiguousarray(np.packbits(free, axis=1))  # each case's pattern as bytes
     keys = packed.view(np.dtype((np.void, packed.shape[1]))).ravel()
     _, first, which = np.unique(keys, return_index=True, return_inverse=True)
+    order = np.argsort(which.reshape(-1), kind="stable")
+    starts = np.searchsorted(which.reshape(-1)[order], np.arange(first.size + 1))
     for p, case in enumerate(first.tolist()):
         rows = np.flatnonzero(free[case])
-        cases = np.flatnonzero(which == p)
-        if not rows.size or not cases.size:
+        cases = order[starts[p] : starts[p + 1]]
+        if not rows.size:
             continue
-        columns = directions[cases][:, rows] * bounds[rows][None, :, None]  # (M, k, 3)
-        sizes = np.linalg.norm(columns, axis=2)
-        order = np.argsort(-sizes, axis=1)
-        columns = np.take_along_axis(columns, order[:, :, None], axis=1)
-        exact = min(rows.size, VERTICES_LIMIT)
-        signs = 1.0 - 2.0 * ((np.arange(2**exact)[:, None] >> np.arange(exact)) & 1)
-        vertices = settled[cases][:, None] + signs @ columns[:, :exact]  # (M, 2^k, 3)
-        bound = np.take_along_axis(sizes, order, axis=1)[:, exact:].sum(axis=1)
-        out[cases] = np.linalg.norm(vertices, axis=2).max(axis=1) + bound
+        columns = directions[pose[cases][:, None], rows[None, :]] * bounds[rows][None, :, None]
+        bound = np.zeros(cases.size)
+        if rows.size > VERTICES_LIMIT:  # the largest enumerated, the others bounded
+            sizes = np.sqrt((columns * columns).sum(axis=2))
+            ranked = np.argsort(-sizes, axis=1)
+            columns = np.take_along_axis(columns, ranked[:, :, None], axis=1)
+            bound = np.take_along_axis(sizes, ranked, axis=1)[:, VERTICES_LIMIT:].sum(axis=1)
+            columns = columns[:, :VERTICES_LIMIT]
+        k = columns.shape[1]
+        signs = 1.0 - 2.0 * ((np.arange(2**k)[:, None] >> np.arange(k)) & 1)
+        vertices = settled[cases][:, None] + signs @ columns  # (M, 2^k, 3)
+        out[cases] = np.sqrt((vertices * vertices).sum(axis=2).max(axis=1)) + bound
     return out
 
 

@@ -35,6 +35,7 @@ single solve lists among its ``free_motions``) are returned for the reach (:mod:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -53,6 +54,7 @@ from ..equilibrium.elastic_tree import play_twin, spring_deflections
 from ..equilibrium.load_table import body_wrenches, load_table, repeated
 from ..equilibrium.prepared import PreparedGeometry, prepared_geometry
 from ..equilibrium.tree_trajectory import objectives_of, tree_gradients, tree_maps
+from ..model.loads import Gravity
 from ..model.stiffness import elastic
 
 if TYPE_CHECKING:
@@ -136,27 +138,46 @@ def tree_cases(
     cases: list[list[Any]],
     gravity: Any,
     placements: tuple[np.ndarray, np.ndarray],
+    masses: Sequence[float | None] | None = None,
+    unit: list[Any] | None = None,
 ) -> TreeCases:
-    """Solve every pose of ``poses`` (Q, nq) under every load case of ``cases`` (module
-    docstring); ``found``: :func:`blocks_of`'s answer; ``placements``: :func:`placements`'."""
+    r"""Solve every pose of ``poses`` (Q, nq) under every load case of ``cases`` (module
+    docstring); ``found``: :func:`blocks_of`'s answer; ``placements``: :func:`placements`'.
+
+    The loads enter linearly: the body wrenches, the gradients and the springs' reactions of a
+    case are the robot's weight's plus its payload's, each formed once per pose, and a payload
+    ``cases[k]`` that is ``masses[k]`` times the load case ``unit`` (a 1 kg mass) is that
+    multiple of its terms: :math:`g_{ik} = g^{weight}_i + m_k\, g^{unit}_i`.
+    """
     prepared, structure = found
     twin = play_twin(mechanism)
-    count, payloads = len(poses), len(cases)
+    count = len(poses)
     rotations, translations = placements
-    wrench_parts, moment_parts, valid_parts = [], [], []
-    for loads in cases:
-        table = repeated(load_table(twin, [loads], gravity), count)
-        wrenches, moments = body_wrenches(table, rotations, translations, prepared.bodies, True)
-        wrench_parts.append(wrenches)
-        moment_parts.append(moments)
-        valid_parts.append(table.valid)
-    wrenches = np.concatenate(wrench_parts)  # (N, bodies, 6), payload-major
-    moments = np.concatenate(moment_parts)
-    valid = np.concatenate(valid_parts)
-    placed_rotations = np.tile(rotations, (payloads, 1, 1, 1))
-    placed_translations = np.tile(translations, (payloads, 1, 1))
     maps = tree_maps(twin, prepared.geometry)
-    gradients = tree_gradients(maps, placed_rotations, placed_translations, wrenches)
+
+    def terms_of(loads: list[Any], weight: Any) -> Terms:
+        """Body wrenches, moments, validity, gradients and springs of ``loads`` at every pose."""
+        table = repeated(load_table(twin, [loads], weight), count)
+        wrenches, moments = body_wrenches(table, rotations, translations, prepared.bodies, True)
+        gradients = tree_gradients(maps, rotations, translations, wrenches)
+        springs = _springs(mechanism, wrenches, rotations, translations)
+        return Terms(wrenches, moments, table.valid, gradients, springs)
+
+    weight = terms_of([], gravity)  # the robot's own weight (zero without gravity)
+    scaled = None if unit is None else terms_of(unit, False)
+    parts: list[Terms] = []
+    for k, loads in enumerate(cases):
+        mass = None if masses is None else masses[k]
+        if mass is not None and scaled is not None:
+            parts.append(weight.plus(scaled.times(mass)))
+        elif any(isinstance(load, Gravity) for load in loads):  # its own weight: as a whole
+            parts.append(terms_of(loads, gravity))
+        else:
+            parts.append(weight.plus(terms_of(loads, False)))
+    wrenches = np.concatenate([part.wrenches for part in parts])  # (N, bodies, 6), payload-major
+    moments = np.concatenate([part.moments for part in parts])
+    valid = np.concatenate([part.valid for part in parts])
+    gradients = np.concatenate([part.gradients for part in parts])
     terms = objectives_of(prepared, gradients, wrenches, moments)
     size = len(terms.sigmas)
     x = np.empty((size, structure.size_x))
@@ -190,7 +211,9 @@ def tree_cases(
     torsors = {
         name: x @ prepared.maps.joint_torsor[name].T for name in mechanism.joints
     }  # the play's
-    deflections = _springs(mechanism, wrenches, placed_rotations, placed_translations)
+    deflections = {
+        name: np.concatenate([part.springs[name] for part in parts]) for name in weight.springs
+    }
     for name, spring in deflections.items():
         torsors[name] = torsors[name] + spring
     ok = done.copy()
@@ -198,6 +221,40 @@ def tree_cases(
     if rest.size:  # the general route, as solve_many would take these cases
         _solve_rest(mechanism, poses, cases, gravity, rest, torsors, deflections, ok)
     return TreeCases(prepared, structure, torsors, deflections, ok, unloaded, undecided & done)
+
+
+@dataclass(frozen=True)
+class Terms:
+    """The load terms of one payload at every pose (Q rows): body wrenches (Q, bodies, 6) and
+    moments about the world origin (Q, bodies, 3) [N, N m] (:func:`~clearance_pin.equilibrium.
+    load_table.body_wrenches`), validity (Q,), gradients g (Q, n) [J per unit] and the springs'
+    deflections, joint -> (Q, 6) [m, rad]: each linear in the loads."""
+
+    wrenches: np.ndarray
+    moments: np.ndarray
+    valid: np.ndarray
+    gradients: np.ndarray
+    springs: dict[str, np.ndarray]
+
+    def plus(self, other: Terms) -> Terms:
+        """The terms of both loads together."""
+        return Terms(
+            self.wrenches + other.wrenches,
+            self.moments + other.moments,
+            self.valid & other.valid,
+            self.gradients + other.gradients,
+            {name: spring + other.springs[name] for name, spring in self.springs.items()},
+        )
+
+    def times(self, factor: float) -> Terms:
+        """The terms of the loads scaled by ``factor``."""
+        return Terms(
+            factor * self.wrenches,
+            factor * self.moments,
+            self.valid,
+            factor * self.gradients,
+            {name: factor * spring for name, spring in self.springs.items()},
+        )
 
 
 def _springs(
