@@ -183,13 +183,18 @@ def ur5_against_the_peer(count: int, payloads: int) -> None:
     largest = np.nanmax(np.linalg.norm(amap.translation, axis=2))
     differs = np.linalg.norm(amap.translation - moved, axis=2) / largest
     reach, pose, payload = amap.largest_reach()
+    band = amap.reach - np.linalg.norm(amap.translation, axis=2)  # what the free motions add
+    at = np.unravel_index(int(np.nanargmax(band)), band.shape)
     print(
         f"UR5 (play, backlash, drive stiffness): {count} poses x {payloads} payloads: map "
         f"{ours * 1e3:.0f} ms, peer (Pinocchio loop + NumPy) {peer * 1e3:.0f} ms, ratio "
         f"{ours / peer:.2f}; largest difference {np.nanmax(differs):.1e} of the largest "
         f"deviation {largest * 1e6:.1f} um, in {int((differs > 1e-12).sum())} cases above 1e-12 "
         f"(cases the closed forms leave to single solves); largest reach {reach * 1e6:.1f} um "
-        f"(pose {pose}, {amap.payloads[payload]}: {', '.join(amap.responsible(pose, payload))})"
+        f"(pose {pose}, {amap.payloads[payload]}: {', '.join(amap.responsible(pose, payload))}); "
+        f"free motions alone: up to {np.nanmax(amap.free_spread) * 1e6:.1f} um; "
+        f"widest band reach - |delta p| {band[at] * 1e6:.1f} um (pose {at[0]}, "
+        f"{amap.payloads[at[1]]}: {', '.join(amap.responsible(*at))})"
     )
 
 

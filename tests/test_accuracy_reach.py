@@ -124,6 +124,13 @@ def test_the_reach_is_the_vertex_of_the_free_motions_farthest_away():
                 for signs in itertools.product((-1.0, 1.0), repeat=len(columns))
             ]
             assert amap.reach[i, k] == pytest.approx(max(vertices), rel=1e-12)
+            alone = [  # the free motions alone, from the settled place
+                np.linalg.norm(np.array(signs) @ np.array(columns))
+                for signs in itertools.product((-1.0, 1.0), repeat=len(columns))
+            ]
+            assert amap.free_spread[i, k] == pytest.approx(max(alone), rel=1e-12)
+            pan = jacobian[:, model.joints[model.getJointId("shoulder_pan_joint")].idx_v]
+            assert amap.free_spread[i, k] >= np.linalg.norm(pan) * bench.BACKLASH / 2
             assert amap.reach[i, k] >= np.linalg.norm(amap.translation[i, k])
     summary = amap.to_dict(poses=True)
     assert summary["largest_reach_m"] == amap.largest_reach()[0] > summary["largest_translation_m"]

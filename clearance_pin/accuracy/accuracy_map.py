@@ -56,6 +56,8 @@ class AccuracyMap:
             band between :attr:`translation` and :attr:`reach`.
         payload_point: where a mass payload hangs, (3,) [m] in the output frame (None: its
             origin).
+        free_spread: how far the free motions alone can move the output from its settled place
+            [m], (Q, P) (0 where none is free; NaN where the reach is not computed).
     """
 
     output: str
@@ -70,6 +72,7 @@ class AccuracyMap:
     reach: np.ndarray | None = None
     free_motions: dict[str, np.ndarray] = field(default_factory=dict)
     payload_point: np.ndarray | None = None
+    free_spread: np.ndarray | None = None
 
     def largest_reach(self) -> tuple[float, int, int]:
         """(the largest reach [m], its pose index, its payload index); NaN, -1, -1 where the
@@ -141,6 +144,8 @@ class AccuracyMap:
                 summary["per_payload"][label]["largest_reach_m"] = float(
                     np.nanmax(self.reach[:, k])
                 )
+            if self.free_spread is not None:
+                summary["largest_free_spread_m"] = float(np.nanmax(self.free_spread))
             summary["free_motions"] = [
                 {"motion": name, "cases": int(mask.sum())}
                 for name, mask in self.free_motions.items()
@@ -154,6 +159,8 @@ class AccuracyMap:
             summary["rotation_rad"] = _nulls(self.rotation)
             if self.reach is not None:
                 summary["reach_m"] = _nulls(self.reach)
+            if self.free_spread is not None:
+                summary["free_spread_m"] = _nulls(self.free_spread)
         return summary
 
     def to_csv(self, path: str | Path, joint_names: Sequence[str] | None = None) -> None:
@@ -242,7 +249,7 @@ def accuracy_map(
     else:
         levers = joint_levers(model, mechanism.tree_joints, frame, poses)
         solved = _general_route(mechanism, poses, cases, loaded, gravity, levers)
-    translation, rotation, shares, turns, ok, reached, free = solved
+    translation, rotation, shares, turns, ok, (reached, spread), free = solved
     shares = {source: {j: s for j, s in by.items() if np.any(s)} for source, by in shares.items()}
     turns = {source: {j: t for j, t in by.items() if np.any(t)} for source, by in turns.items()}
     return AccuracyMap(
@@ -258,6 +265,7 @@ def accuracy_map(
         reached,
         free,
         point,
+        spread,
     )
 
 
@@ -268,7 +276,7 @@ Solved = tuple[
     dict[str, dict[str, np.ndarray]],
     dict[str, dict[str, np.ndarray]],
     np.ndarray,
-    np.ndarray,
+    tuple[np.ndarray, np.ndarray],
     dict[str, np.ndarray],
 ]
 
@@ -325,9 +333,9 @@ def _tree_route(
     row_group = structure.contact_group[structure.row_contact]
     free_rows = unloaded[:, :, row_group].transpose(1, 0, 2).reshape(count * payloads, -1)
     pose = np.repeat(np.arange(count), payloads)  # the cases in (Q, P) order
-    reached = reach(
+    reached, spread = reach(
         translation.reshape(-1, 3), directions, pose, structure.row_bound, free_rows
-    ).reshape(count, payloads)
+    )
     contacts = prepared.geometry.contacts
     free = {}
     for g in range(groups):
@@ -336,7 +344,9 @@ def _tree_route(
         mask = unloaded[:, :, g].T & ok.T
         if mask.any():
             free[label] = mask
-    return translation, rotation, shares, turns, ok.T.copy(), reached, free
+    shape = (count, payloads)
+    return (translation, rotation, shares, turns, ok.T.copy(),
+            (reached.reshape(shape), spread.reshape(shape)), free)  # fmt: skip
 
 
 def _general_route(
@@ -371,7 +381,8 @@ def _general_route(
     translation, rotation = _total(shares), _total(turns)
     translation[~ok] = np.nan
     rotation[~ok] = np.nan
-    return translation, rotation, shares, turns, ok, np.full((count, payloads), np.nan), {}
+    unknown = np.full((count, payloads), np.nan)
+    return translation, rotation, shares, turns, ok, (unknown, unknown.copy()), {}
 
 
 def _split(

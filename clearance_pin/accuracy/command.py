@@ -223,6 +223,9 @@ def table(amap: Any) -> str:
             f"largest reach {reach * UM:.2f} um (pose {at}, payload {amap.payloads[case]}): "
             f"the deviation plus the motions its load leaves free ({free})",
         )
+        if amap.free_spread is not None:
+            spread = np.nanmax(amap.free_spread) * UM
+            lines.insert(3, f"the free motions alone move it up to {spread:.2f} um")
         lines.append("free motions (no load holds them; the output may sit anywhere in them):")
         total = amap.ok.size
         for name, mask in amap.free_motions.items():

@@ -51,12 +51,14 @@ def reach(
     pose: np.ndarray,
     bounds: np.ndarray,
     free: np.ndarray,
-) -> np.ndarray:
-    r"""The largest distance [m] of the output from its nominal place, (N,): ``settled`` (N, 3)
-    [m], ``directions`` (Q, R, 3) (:func:`row_directions`), ``pose`` (N,) each case's pose,
-    ``bounds`` (R,) [m] the half-range of each row, ``free`` (N, R) the rows free in each case
-    (module docstring)."""
+) -> tuple[np.ndarray, np.ndarray]:
+    r"""(the largest distance [m] of the output from its nominal place, the largest distance
+    [m] the free motions alone move it from its settled place :math:`\max \lVert \sum_i D_i e_i
+    \rVert`), each (N,): ``settled`` (N, 3) [m], ``directions`` (Q, R, 3)
+    (:func:`row_directions`), ``pose`` (N,) each case's pose, ``bounds`` (R,) [m] the
+    half-range of each row, ``free`` (N, R) the rows free in each case (module docstring)."""
     out: np.ndarray = np.sqrt((settled * settled).sum(axis=1))
+    spread = np.zeros(len(settled))
     packed = np.ascontiguousarray(np.packbits(free, axis=1))  # each case's pattern as bytes
     keys = packed.view(np.dtype((np.void, packed.shape[1]))).ravel()
     _, first, which = np.unique(keys, return_index=True, return_inverse=True)
@@ -77,9 +79,12 @@ def reach(
             columns = columns[:, :VERTICES_LIMIT]
         k = columns.shape[1]
         signs = 1.0 - 2.0 * ((np.arange(2**k)[:, None] >> np.arange(k)) & 1)
-        vertices = settled[cases][:, None] + signs @ columns  # (M, 2^k, 3)
+        moved = signs @ columns  # (M, 2^k, 3): the free motions' vertices
+        spread[cases] = np.sqrt((moved * moved).sum(axis=2).max(axis=1)) + bound
+        vertices = settled[cases][:, None] + moved
         out[cases] = np.sqrt((vertices * vertices).sum(axis=2).max(axis=1)) + bound
-    return out
+    spread[~np.isfinite(out)] = np.nan
+    return out, spread
 
 
 __all__ = ["VERTICES_LIMIT", "reach", "row_directions"]
