@@ -16,6 +16,7 @@ Independent references (no solver code):
 
 from __future__ import annotations
 
+import importlib
 import itertools
 import json
 import re
@@ -161,7 +162,7 @@ def test_the_one_pass_route_equals_one_solve_many_per_payload(monkeypatch):
         robots.append(("tool0", ur5()))
     except pytest.skip.Exception:
         pass
-    module = sys.modules[MAP_MODULE]
+    module = importlib.import_module(MAP_MODULE)
     for tool, robot in robots:
         poses = poses_of(robot, 40, 11)
         payloads = [0.0, 2.0, 9.0]
@@ -270,3 +271,45 @@ def test_the_command_line_reach_csv_and_workspace(tmp_path, capsys):
     assert (tmp_path / "ws.png").stat().st_size > 10_000
     assert main(["accuracy", model, "--output", "tool", "--payload-point", "1,2"]) == 2
     assert "--payload-point" in capsys.readouterr().err
+
+
+def test_cases_that_do_not_verify_go_to_solve_many(monkeypatch):
+    """A closed form that fails its verification is solved by solve_many (the general route):
+    every other case, forced here, gives the same map as the general route on the 6R arm with
+    springs."""
+    bench = pytest.importorskip("accuracy_map")
+    from dataclasses import replace
+
+    tree_map = importlib.import_module("clearance_pin.accuracy.tree_map")
+    robot = cp.loads(bench.stiffened((ROOT / "models/arm_6r.urdf").read_text()))
+    poses = poses_of(robot, 6, 5)
+    original = tree_map.verify
+    calls = []
+
+    def failing(*arguments, **keywords):
+        check = original(*arguments, **keywords)
+        calls.append(check.verified.size)
+        refused = check.verified.copy()
+        refused[::2] = False
+        return replace(check, verified=refused)
+
+    monkeypatch.setattr(tree_map, "verify", failing)
+    fast = robot.accuracy("tool", poses, payloads=[1.0, 4.0], gravity=True)
+    monkeypatch.setattr(importlib.import_module(MAP_MODULE), "blocks_of", lambda mechanism: None)
+    general = robot.accuracy("tool", poses, payloads=[1.0, 4.0], gravity=True)
+    assert calls and fast.ok.all()
+    scale = np.linalg.norm(general.translation, axis=2).max()
+    assert np.abs(fast.translation - general.translation).max() <= 1e-12 * scale
+    assert np.isfinite(fast.reach).all()
+
+
+def test_a_mechanism_with_loops_keeps_the_general_route():
+    """The four-bar (a loop joint): one solve_many per payload; the reach is not computed (NaN,
+    no free motions), the table says so and the JSON summary leaves it out."""
+    from clearance_pin.accuracy.command import table
+
+    four_bar = cp.load(str(ROOT / "models/four_bar.urdf"))
+    amap = four_bar.accuracy("rocker", np.tile(four_bar.q_nominal, (2, 1)), payloads=[0.0, 1.0])
+    assert amap.ok.all() and np.isnan(amap.reach).all() and not amap.free_motions
+    assert "reach: not computed" in table(amap)
+    assert "largest_reach_m" not in amap.to_dict()
