@@ -140,13 +140,17 @@ def test_the_reach_is_the_vertex_of_the_free_motions_farthest_away():
 
 def test_a_payload_without_any_load_leaves_every_motion_free():
     """No load at all (0 kg, no weight): the tool stays at its nominal place but may sit anywhere
-    in the play; the reach is the box's farthest vertex, each journal end's disc in its square
-    (an upper bound): between the largest single journal's tilt lever and the sum of all."""
+    in the play; the reach is the box's farthest vertex, each journal end's disc in its square:
+    an upper bound of the envelope of the play."""
     arm = cp.load(str(ROOT / "models/arm_6r.urdf"))
     amap = arm.accuracy("tool", arm.q_nominal, payloads=[0.0], gravity=False)
     assert np.all(amap.translation == 0.0) and amap.ok.all()
     assert amap.reach[0, 0] > 0.0
     assert {m.split(": ")[1] for m in amap.responsible(0, 0)} == {"radial play", "axial play"}
+    # sound: at least the certified envelope's largest translation (its own grid and certificate)
+    envelope = arm.envelope("tool", q=arm.q_nominal, kinds=("translation",))
+    assert amap.reach[0, 0] >= envelope.max_translation.upper
+    assert amap.free_spread[0, 0] == amap.reach[0, 0]  # settled at the nominal place
 
 
 def test_the_one_pass_route_equals_one_solve_many_per_payload(monkeypatch):

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-VERTICES_LIMIT = 12  # free rows enumerated exactly (2^12 vertices); the rest bounded
+VERTICES_LIMIT = 10  # free rows enumerated exactly (2^10 vertices); the rest bounded
 
 
 def row_directions(
