@@ -9,8 +9,9 @@ with the kinematics of each pose computed once and the payloads as columns:
 
 1. body placements of every pose, once (:func:`~clearance_pin.equilibrium.batch_kinematics.
    body_placements`);
-2. per payload :math:`P_k`, the body wrenches of its loads and the robot's weight at every pose
-   (:func:`~clearance_pin.equilibrium.load_table.body_wrenches`), stacked as N = P Q cases;
+2. the body wrenches of the robot's weight and of each payload :math:`P_k` at every pose
+   (:func:`~clearance_pin.equilibrium.load_table.body_wrenches`), each once: the loads enter
+   linearly, a mass payload is a multiple of the 1 kg case; stacked as N = P Q cases;
 3. the gradients :math:`g = -\sum_b J_b^T W_b` by the subtree statics about each joint centre
    (:func:`~clearance_pin.equilibrium.tree_trajectory.tree_gradients`), the closed forms and their
    verification (:func:`~clearance_pin.equilibrium.blocks.closed_forms`,
@@ -24,8 +25,8 @@ programme, :func:`~clearance_pin.equilibrium.block_verify.verify`: an optimum of
 programme); a case that does not verify, or whose loads work on an unblocked motion, is solved by
 ``solve_many`` (the general route). One departure: where the closed forms' uniqueness test is
 inconclusive (``decided`` False: a journal end carrying a sliver of the load, a contact between
-2e-10 and 2e-9 of the largest load) ``solve_many`` solves the case alone by its cone solver,
-whose answer is the same optimum on the robots tested (tests/test_accuracy_tree.py compares those
+5e-10 and 2e-9 of the largest load) ``solve_many`` solves the case alone by its cone solver,
+whose answer is the same optimum on the robots tested (tests/test_accuracy_reach.py compares those
 cases with single solves to 1e-12 of the largest deviation); here the verified closed form is
 kept, at a hundredth of the time, and a group between loaded and unloaded (at most 2e-9 of the
 largest multiplier) counts as free for the reach. The groups each case leaves unloaded (every
