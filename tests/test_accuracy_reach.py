@@ -317,3 +317,14 @@ def test_a_mechanism_with_loops_keeps_the_general_route():
     assert amap.ok.all() and np.isnan(amap.reach).all() and not amap.free_motions
     assert "reach: not computed" in table(amap)
     assert "largest_reach_m" not in amap.to_dict()
+
+
+def test_a_payload_on_an_unblocked_motion_is_refused():
+    """The double pendulum with its shoulder no longer driven: a tip force across the arm turns
+    it freely; the map says so once (UnboundedLoadError, as solve), whichever route."""
+    text = (ROOT / "models/double_pendulum.urdf").read_text()
+    free = cp.loads(text.replace('driven="true" q="0.5235987755982988"', 'q="0.5235987755982988"'))
+    link, point = free.link_point("tip")
+    push = [[cp.PointForce(link, [0.0, 5.0, 0.0], point)]]
+    with pytest.raises(cp.UnboundedLoadError, match="shoulder"):
+        free.accuracy("tip", np.tile(free.q_nominal, (3, 1)), payloads=push)

@@ -297,7 +297,8 @@ def _solve_rest(
     ok: np.ndarray,
 ) -> None:
     """The cases ``rest`` (payload-major indices) by ``solve_many``, written into the arrays in
-    place."""
+    place; a payload none of whose poses solves raises its first pose's error (a fault of the
+    model or the payload, said once, as the general route does)."""
     count = len(poses)
     batch = mechanism.solve_many(
         [cases[k // count] for k in rest.tolist()],
@@ -306,6 +307,12 @@ def _solve_rest(
         errors="return",
     )
     ok[rest] = batch.ok
+    for payload in range(len(cases)):
+        mine = np.flatnonzero(rest // count == payload)
+        if mine.size == count and not ok[rest[mine]].any():
+            first = batch[int(mine[0])]
+            if isinstance(first, Exception):
+                raise first
     for name, values in torsors.items():
         values[rest] = batch.torsors(name)
     for name, values in deflections.items():
