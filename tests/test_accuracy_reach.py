@@ -328,3 +328,15 @@ def test_a_payload_on_an_unblocked_motion_is_refused():
     push = [[cp.PointForce(link, [0.0, 5.0, 0.0], point)]]
     with pytest.raises(cp.UnboundedLoadError, match="shoulder"):
         free.accuracy("tip", np.tile(free.q_nominal, (3, 1)), payloads=push)
+
+
+def test_poses_outside_the_limits_are_warned_once_at_the_callers_line():
+    """As solve_many: one SuspectValueWarning naming the joint and how many poses, pointing at
+    the line that asked for the map."""
+    arm = cp.load(str(ROOT / "models/arm_6r.urdf"))
+    poses = np.tile(arm.q_nominal, (3, 1))
+    poses[1:, 1] = 7.0  # shoulder_lift's limits: +/- 6.28 rad
+    with pytest.warns(cp.SuspectValueWarning, match="2 of 3 put joint 'shoulder_lift'") as caught:
+        amap = arm.accuracy("tool", poses, payloads=[1.0])
+    assert len(caught) == 1 and caught[0].filename == __file__
+    assert amap.ok.all()

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import ArgumentError, NotFoundError
 from ..kinematics.joint_shares import joint_levers
+from ..model import plausibility
 from ..model.frames import frame_id as find_frame
 from ..model.joints import TreeJoint
 from ..model.loads import Gravity, PointForce, Torque
@@ -296,6 +297,9 @@ def _tree_route(
     case leaves unloaded (:mod:`.reach`); a payload without any load leaves every group free."""
     count, payloads = len(poses), len(cases)
     prepared, structure = found
+    # as solve_many: one warning for the poses outside the joints' limits (stacklevel 4: the
+    # caller of Mechanism.accuracy)
+    plausibility.warn_configurations(mechanism, poses, stacklevel=4)
     placed = placements(mechanism, poses)  # the kinematics of each pose, once
     levers = tree_levers(mechanism, frame, placed)
     solved = [k for k in range(payloads) if loaded[k]]
