@@ -340,3 +340,12 @@ def test_poses_outside_the_limits_are_warned_once_at_the_callers_line():
         amap = arm.accuracy("tool", poses, payloads=[1.0])
     assert len(caught) == 1 and caught[0].filename == __file__
     assert amap.ok.all()
+
+
+def test_payloads_beyond_double_precision_are_refused_by_name():
+    arm = cp.load(str(ROOT / "models/arm_6r.urdf"))
+    with pytest.raises(cp.LoadError, match=r"payloads\[1\]"):
+        arm.accuracy("tool", arm.q_nominal, payloads=[1.0, 1e300])
+    huge = [cp.PointForce("tool", [0.0, 0.0, 1e200])]
+    with pytest.raises(cp.LoadError, match=r"payloads\[0\]"):
+        arm.accuracy("tool", arm.q_nominal, payloads=[huge])

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arguments import check_load_magnitudes
 from ..errors import ArgumentError, NotFoundError
 from ..kinematics.joint_shares import joint_levers
 from ..model import plausibility
@@ -500,12 +501,14 @@ def _payload_cases(
             link, where = _hanging_point(mechanism, output, point)
             weight = [0.0, 0.0, -STANDARD_GRAVITY * float(payload)]
             cases.append([PointForce(link, weight, where)] if payload else [])
+            check_load_magnitudes(cases[-1], f"payloads[{index}]")
             labels.append(f"{float(payload):g} kg")
             continue
         loads = list(payload)
         for load in loads:
             if not isinstance(load, (PointForce, Torque, Gravity)):
                 raise ArgumentError(f"payloads[{index}]", "PointForce, Torque or Gravity", load)
+        check_load_magnitudes(loads, f"payloads[{index}]")  # what double precision carries
         cases.append(loads)
         labels.append(", ".join(_describe(load) for load in loads) or "no load")
     if not cases:
