@@ -349,3 +349,21 @@ def test_payloads_beyond_double_precision_are_refused_by_name():
     huge = [cp.PointForce("tool", [0.0, 0.0, 1e200])]
     with pytest.raises(cp.LoadError, match=r"payloads\[0\]"):
         arm.accuracy("tool", arm.q_nominal, payloads=[huge])
+
+
+def test_the_benchmark_runs_and_its_peer_agrees():
+    """benchmarks/accuracy_map.py --only ur5 on a small map, in a fresh interpreter: it prints
+    the ratio and the two maps' largest difference (times are not checked)."""
+    import subprocess
+
+    ur5()  # skips without example-robot-data
+    script = ROOT / "benchmarks" / "accuracy_map.py"
+    arguments = ["--only", "ur5", "--poses", "20", "--payloads", "2"]
+    import os
+
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}  # this checkout's package
+    done = subprocess.run([sys.executable, str(script), *arguments], capture_output=True,
+                          text=True, timeout=600, check=False, env=environment)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    found = re.search(r"largest difference ([0-9.e+-]+) of the largest deviation", done.stdout)
+    assert found and float(found.group(1)) <= 1e-12 and "ratio" in done.stdout
