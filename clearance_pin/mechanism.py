@@ -491,14 +491,16 @@ class Mechanism:
         configurations: ArrayLike,
         payloads: Any = (0.0,),
         gravity: bool | Gravity | None = None,
+        payload_point: ArrayLike | None = None,
     ) -> Any:
         """The accuracy map of ``output`` (a Pinocchio frame, the tool) over poses
-        ``configurations`` (Q, nq) and ``payloads`` (masses [kg] at the output, or load cases):
-        its displacement (Q, P, 3) and each joint's and source's share of it; see
-        :func:`clearance_pin.accuracy.accuracy_map`."""
+        ``configurations`` (Q, nq) and ``payloads`` (masses [kg] at the output's origin, or at
+        ``payload_point`` (3,) [m] in its frame, or load cases): its displacement (Q, P, 3), its
+        reach over the motions the load leaves free (Q, P) and each joint's and source's share;
+        see :func:`clearance_pin.accuracy.accuracy_map`."""
         from .accuracy import accuracy_map
 
-        return accuracy_map(self, output, configurations, payloads, gravity)
+        return accuracy_map(self, output, configurations, payloads, gravity, payload_point)
 
     def resolver(
         self,

@@ -15,6 +15,12 @@ source: its play on the component its drive turns (``"backlash"``: a driven join
 and on the others (``"play"``: the bearing's radial, axial and tilt play), and, for a joint with
 stiffness, its elastic deflection (:meth:`~clearance_pin.equilibrium.result.Equilibrium.deflection`)
 on the drive's component (``"drive compliance"``) and on the others (``"bearing compliance"``).
+
+A motion no load holds (a driven joint without load torque anywhere in its backlash, a journal's
+axial play under a radial load: a single solve's ``free_motions``) widens the answer into a band:
+the map's ``reach`` is the output's largest distance from its nominal place over the settled
+state and those motions (:mod:`.reach`). A tree of independent joint blocks is solved in one pass
+over the poses, the payloads as columns (:mod:`.tree_map`).
 """
 
 from .accuracy_map import AccuracyMap, accuracy_map

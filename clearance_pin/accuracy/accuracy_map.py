@@ -10,15 +10,21 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..arguments import check_load_magnitudes
 from ..errors import ArgumentError, NotFoundError
-from ..kinematics.joint_shares import joint_levers, moved_by
+from ..kinematics.joint_shares import joint_levers
+from ..model import plausibility
 from ..model.frames import frame_id as find_frame
 from ..model.joints import TreeJoint
 from ..model.loads import Gravity, PointForce, Torque
+from .reach import reach, row_directions
+from .tree_map import blocks_of, placements, tree_cases
+from .tree_map import levers as tree_levers
 
 if TYPE_CHECKING:
     from ..mechanism import Mechanism
@@ -43,6 +49,17 @@ class AccuracyMap:
         rotation_contributions: the same for :attr:`rotation` [rad].
         ok: every answer verified, (Q, P).
         solve_time: wall time of the solves and the split [s].
+        reach: the largest distance of the output from its nominal place [m], (Q, P), over the
+            settled state and every motion the load leaves free (:mod:`.reach`; >= the norm of
+            :attr:`translation`); NaN where not computed (mechanisms with loop joints or
+            couplings, joints that are not independent blocks) or the case failed.
+        free_motions: ``"joint: motion"`` (``backlash``, ``axial play``, ``radial play``) ->
+            (Q, P) True where that motion is free (unloaded): the joints responsible for the
+            band between :attr:`translation` and :attr:`reach`.
+        payload_point: where a mass payload hangs, (3,) [m] in the output frame (None: its
+            origin).
+        free_spread: how far the free motions alone can move the output from its settled place
+            [m], (Q, P) (0 where none is free; NaN where the reach is not computed).
     """
 
     output: str
@@ -54,6 +71,23 @@ class AccuracyMap:
     rotation_contributions: dict[str, dict[str, np.ndarray]]
     ok: np.ndarray
     solve_time: float = field(default=0.0, compare=False)
+    reach: np.ndarray | None = None
+    free_motions: dict[str, np.ndarray] = field(default_factory=dict)
+    payload_point: np.ndarray | None = None
+    free_spread: np.ndarray | None = None
+
+    def largest_reach(self) -> tuple[float, int, int]:
+        """(the largest reach [m], its pose index, its payload index); NaN, -1, -1 where the
+        reach was not computed."""
+        if self.reach is None or not np.isfinite(self.reach).any():
+            return float("nan"), -1, -1
+        pose, payload = np.unravel_index(int(np.nanargmax(self.reach)), self.reach.shape)
+        return float(self.reach[pose, payload]), int(pose), int(payload)
+
+    def responsible(self, pose: int, payload: int) -> list[str]:
+        """The free motions (``"joint: motion"``) of one case: what can move the output from
+        its settled place to its reach."""
+        return [name for name, mask in self.free_motions.items() if mask[pose, payload]]
 
     def largest(self) -> tuple[float, int, int]:
         """(the largest output displacement [m], its pose index, its payload index)."""
@@ -99,12 +133,70 @@ class AccuracyMap:
             ],
             "all_verified": bool(self.ok.all()),
         }
+        reach, at, case = self.largest_reach()
+        if np.isfinite(reach):
+            assert self.reach is not None
+            summary["largest_reach_m"] = reach
+            summary["largest_reach_at"] = {
+                "pose": at,
+                "payload": self.payloads[case],
+                "free_motions": self.responsible(at, case),
+            }
+            for k, label in enumerate(self.payloads):
+                summary["per_payload"][label]["largest_reach_m"] = float(
+                    np.nanmax(self.reach[:, k])
+                )
+            if self.free_spread is not None:
+                summary["largest_free_spread_m"] = float(np.nanmax(self.free_spread))
+            summary["free_motions"] = [
+                {"motion": name, "cases": int(mask.sum())}
+                for name, mask in self.free_motions.items()
+            ]
+        if self.payload_point is not None:
+            summary["payload_point_m"] = [float(v) for v in self.payload_point]
         if poses:  # a failed case is NaN here, null in JSON
             summary["frame"] = "world"
             summary["configurations"] = self.configurations.tolist()
             summary["translation_m"] = _nulls(self.translation)
             summary["rotation_rad"] = _nulls(self.rotation)
+            if self.reach is not None:
+                summary["reach_m"] = _nulls(self.reach)
+            if self.free_spread is not None:
+                summary["free_spread_m"] = _nulls(self.free_spread)
         return summary
+
+    def to_csv(self, path: str | Path, joint_names: Sequence[str] | None = None) -> None:
+        """Write one row per pose and payload: the joint values q (``joint_names``, else
+        q0, q1, ...) [rad or m], the payload, the translation (world axes) and its norm [m], the
+        reach [m] (empty where not computed), each (source, joint)'s share of the translation,
+        its norm [m], and the free motions (``;``-separated)."""
+        import csv
+
+        names = list(joint_names or [f"q{i}" for i in range(self.configurations.shape[1])])
+        if len(names) != self.configurations.shape[1]:
+            raise ArgumentError("joint_names", f"{self.configurations.shape[1]} names", names)
+        contributors = [(s, j) for s, by in self.contributions.items() for j in by]
+        header = [*(f"{n}" for n in names), "payload", "x_m", "y_m", "z_m", "translation_m",
+                  "reach_m", *(f"{s} {j}_m" for s, j in contributors), "free_motions"]  # fmt: skip
+        norms = np.linalg.norm(self.translation, axis=2)
+        with open(path, "w", newline="") as stream:
+            writer = csv.writer(stream)
+            writer.writerow(header)
+            for i, q in enumerate(self.configurations):
+                for k, label in enumerate(self.payloads):
+                    reach = "" if self.reach is None else _cell(self.reach[i, k])
+                    writer.writerow([
+                        *map(repr, q.tolist()), label, *map(_cell, self.translation[i, k]),
+                        _cell(float(norms[i, k])), reach,
+                        *(_cell(float(np.linalg.norm(self.contributions[s][j][i, k])))
+                          for s, j in contributors),
+                        "; ".join(self.responsible(i, k)),
+                    ])  # fmt: skip
+
+
+def _cell(value: float) -> str:
+    """A CSV cell of a number [SI]: its repr, empty for NaN."""
+    return repr(float(value)) if np.isfinite(value) else ""
 
 
 def _nulls(values: np.ndarray) -> list[Any]:
@@ -121,6 +213,7 @@ def accuracy_map(
     configurations: Any,
     payloads: Sequence[Any] = (0.0,),
     gravity: Any = None,
+    payload_point: Any = None,
 ) -> AccuracyMap:
     """The accuracy map of ``output`` over ``configurations`` and ``payloads`` (module docstring).
 
@@ -128,10 +221,11 @@ def accuracy_map(
         mechanism: the robot (its driven joints hold each pose).
         output: a Pinocchio frame name (the tool).
         configurations: poses q, (Q, nq) (the driven joints' commands).
-        payloads: each a mass [kg] hung at the output frame's origin (its weight along world -z,
+        payloads: each a mass [kg] hung at ``payload_point`` (its weight along world -z,
             9.80665 m/s^2) or a load case (a list of PointForce / Torque); default one payload
             of 0 kg.
         gravity: the robot's own weight: None as the model says, True / False / a Gravity.
+        payload_point: where a mass hangs, (3,) [m] in the output frame; None: its origin.
 
     Returns:
         :class:`AccuracyMap`.
@@ -142,45 +236,22 @@ def accuracy_map(
     if frame is None:
         raise NotFoundError("frame", output, [f.name for f in model.frames], mechanism.name)
     poses = _configurations(configurations, model.nq)
-    cases, labels = _payload_cases(mechanism, output, payloads)
-    count, joints = len(poses), mechanism.tree_joints
-    translation = np.zeros((count, len(cases), 3))
-    rotation = np.zeros((count, len(cases), 3))
-    shares = {
-        source: {j.name: np.zeros((count, len(cases), 3)) for j in joints} for source in SOURCES
-    }
-    turns = {
-        source: {j.name: np.zeros((count, len(cases), 3)) for j in joints} for source in SOURCES
-    }
-    ok = np.zeros((count, len(cases)), dtype=bool)
-    levers = joint_levers(model, mechanism.tree_joints, frame, poses)
-    # a tree's springs add to its play: solve_many gives the rigid twin's batch and each
-    # spring's deflection from its reaction, the statics of its subtree (.equilibrium.elastic_batch)
-    for k, loads in enumerate(cases):
-        if not mechanism.resolve_loads(loads, False if gravity is False else gravity):
-            ok[:, k] = True  # no load at all: every pose stays at its nominal place
-            continue
-        batch = mechanism.solve_many(
-            [loads] * count, configurations=poses, gravity=gravity, errors="return"
-        )
-        ok[:, k] = batch.ok
-        if not ok[:, k].any() and isinstance(first := batch[0], Exception):
-            raise first  # no pose solves: a fault of the model or the payload, said once
-        for joint in joints:
-            if joint.name not in levers:
-                continue  # not between the ground and the output: it does not move it
-            axes, arms = levers[joint.name]
-            torsor = batch.torsors(joint.name)  # (Q, 6) [m, rad], clearance frame, with springs
-            deflection = batch.deflections(joint.name) if joint.clearance.stiffness else None
-            for source, part in _by_source(joint, torsor, deflection).items():
-                moved, turned = moved_by(axes, arms, part)
-                shares[source][joint.name][:, k] = moved
-                turns[source][joint.name][:, k] = turned
-        translation[:, k] = sum(s[:, k] for by in shares.values() for s in by.values())
-        rotation[:, k] = sum(s[:, k] for by in turns.values() for s in by.values())
-        failed = ~batch.ok
-        translation[failed, k] = np.nan
-        rotation[failed, k] = np.nan
+    point = _payload_point(payload_point)
+    cases, labels = _payload_cases(mechanism, output, payloads, point)
+    loaded = [
+        bool(mechanism.resolve_loads(loads, False if gravity is False else gravity))
+        for loads in cases
+    ]
+    found = blocks_of(mechanism)
+    if found is not None:
+        masses = [_mass(payload) for payload in _listed(payloads)]
+        link, where = _hanging_point(mechanism, output, point)
+        unit = [PointForce(link, [0.0, 0.0, -STANDARD_GRAVITY], where)]  # 1 kg
+        solved = _tree_route(mechanism, found, frame, poses, cases, loaded, gravity, masses, unit)
+    else:
+        levers = joint_levers(model, mechanism.tree_joints, frame, poses)
+        solved = _general_route(mechanism, poses, cases, loaded, gravity, levers)
+    translation, rotation, shares, turns, ok, (reached, spread), free = solved
     shares = {source: {j: s for j, s in by.items() if np.any(s)} for source, by in shares.items()}
     turns = {source: {j: t for j, t in by.items() if np.any(t)} for source, by in turns.items()}
     return AccuracyMap(
@@ -193,7 +264,199 @@ def accuracy_map(
         {source: by for source, by in turns.items() if by},
         ok,
         time.perf_counter() - started,
+        reached,
+        free,
+        point,
+        spread,
     )
+
+
+Levers = dict[str, tuple[np.ndarray, np.ndarray]]
+Solved = tuple[
+    np.ndarray,
+    np.ndarray,
+    dict[str, dict[str, np.ndarray]],
+    dict[str, dict[str, np.ndarray]],
+    np.ndarray,
+    tuple[np.ndarray, np.ndarray],
+    dict[str, np.ndarray],
+]
+
+
+def _tree_route(
+    mechanism: Mechanism,
+    found: Any,
+    frame: int,
+    poses: np.ndarray,
+    cases: list[list[Any]],
+    loaded: list[bool],
+    gravity: Any,
+    masses: list[float | None],
+    unit: list[Any],
+) -> Solved:
+    """Every pose and loaded payload at once (:mod:`.tree_map`), the reach from the groups each
+    case leaves unloaded (:mod:`.reach`); a payload without any load leaves every group free."""
+    count, payloads = len(poses), len(cases)
+    prepared, structure = found
+    # as solve_many: one warning for the poses outside the joints' limits (stacklevel 4: the
+    # caller of Mechanism.accuracy)
+    plausibility.warn_configurations(mechanism, poses, stacklevel=4)
+    placed = placements(mechanism, poses)  # the kinematics of each pose, once
+    levers = tree_levers(mechanism, frame, placed)
+    solved = [k for k in range(payloads) if loaded[k]]
+    chosen = [cases[k] for k in solved]
+    answers = (
+        tree_cases(
+            mechanism, found, poses, chosen, gravity, placed, [masses[k] for k in solved], unit
+        )
+        if solved
+        else None
+    )
+    groups = len(structure.group_rows)
+    unloaded = np.ones((payloads, count, groups), dtype=bool)
+    ok = np.ones((payloads, count), dtype=bool)
+    zeros = np.zeros((payloads, count, 6))
+    torsors = {j.name: zeros.copy() for j in mechanism.tree_joints}
+    springs = {j.name: zeros.copy() for j in mechanism.tree_joints if j.clearance.stiffness}
+    if answers is not None:
+        unloaded[solved] = answers.unloaded.reshape(len(solved), count, groups)
+        ok[solved] = answers.ok.reshape(len(solved), count)
+        for name, values in answers.torsors.items():
+            if name in torsors:
+                torsors[name][solved] = values.reshape(len(solved), count, 6)
+        for name, values in answers.deflections.items():
+            if name in springs:
+                springs[name][solved] = values.reshape(len(solved), count, 6)
+    shares, turns = _split(mechanism, torsors, springs, levers, count, payloads)
+    translation, rotation = _total(shares), _total(turns)
+    failed = ~ok.T
+    translation[failed] = np.nan
+    rotation[failed] = np.nan
+    # the reach over the free rows: each row's unknowns, its joint's torsor, the output's lever
+    units = {name: structure.rows_to_x @ prepared.maps.joint_torsor[name].T for name in levers}
+    directions = row_directions(units, levers)  # (Q, R, 3)
+    row_group = structure.contact_group[structure.row_contact]
+    free_rows = unloaded[:, :, row_group].transpose(1, 0, 2).reshape(count * payloads, -1)
+    pose = np.repeat(np.arange(count), payloads)  # the cases in (Q, P) order
+    reached, spread = reach(
+        translation.reshape(-1, 3), directions, pose, structure.row_bound, free_rows
+    )
+    contacts = prepared.geometry.contacts
+    free = {}
+    for g in range(groups):
+        members = np.flatnonzero(structure.members[:, g])
+        label = f"{contacts[members[0]].joint}: " + _motion(contacts[members[0]].contact.name)
+        mask = unloaded[:, :, g].T & ok.T
+        if mask.any():
+            free[label] = mask
+    shape = (count, payloads)
+    return (translation, rotation, shares, turns, ok.T.copy(),
+            (reached.reshape(shape), spread.reshape(shape)), free)  # fmt: skip
+
+
+def _general_route(
+    mechanism: Mechanism,
+    poses: np.ndarray,
+    cases: list[list[Any]],
+    loaded: list[bool],
+    gravity: Any,
+    levers: Levers,
+) -> Solved:
+    """One ``solve_many`` per payload (loop joints, couplings, joints that are not independent
+    blocks); the reach is not computed there (NaN)."""
+    count, payloads = len(poses), len(cases)
+    ok = np.ones((count, payloads), dtype=bool)
+    zeros = np.zeros((payloads, count, 6))
+    torsors = {j.name: zeros.copy() for j in mechanism.tree_joints}
+    springs = {j.name: zeros.copy() for j in mechanism.tree_joints if j.clearance.stiffness}
+    for k, loads in enumerate(cases):
+        if not loaded[k]:
+            continue  # no load at all: every pose stays at its nominal place
+        batch = mechanism.solve_many(
+            [loads] * count, configurations=poses, gravity=gravity, errors="return"
+        )
+        ok[:, k] = batch.ok
+        if not ok[:, k].any() and isinstance(first := batch[0], Exception):
+            raise first  # no pose solves: a fault of the model or the payload, said once
+        for name in levers:
+            torsors[name][k] = batch.torsors(name)
+            if name in springs:
+                springs[name][k] = batch.deflections(name)
+    shares, turns = _split(mechanism, torsors, springs, levers, count, payloads)
+    translation, rotation = _total(shares), _total(turns)
+    translation[~ok] = np.nan
+    rotation[~ok] = np.nan
+    unknown = np.full((count, payloads), np.nan)
+    return translation, rotation, shares, turns, ok, (unknown, unknown.copy()), {}
+
+
+def _split(
+    mechanism: Mechanism,
+    torsors: dict[str, np.ndarray],
+    springs: dict[str, np.ndarray],
+    levers: Levers,
+    count: int,
+    payloads: int,
+) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, np.ndarray]]]:
+    """Each joint's share of the output's translation and rotation (Q, P, 3) by source, from
+    its torsors (P, Q, 6) and its springs' deflections (P, Q, 6)."""
+    shape = (count, payloads, 3)
+    shares = {s: {j.name: np.zeros(shape) for j in mechanism.tree_joints} for s in SOURCES}
+    turns = {s: {j.name: np.zeros(shape) for j in mechanism.tree_joints} for s in SOURCES}
+    for joint in mechanism.tree_joints:
+        if joint.name not in levers:
+            continue  # not between the ground and the output: it does not move it
+        axes, arms = levers[joint.name]
+        deflection = springs.get(joint.name)
+        for source, part in _by_source(joint, torsors[joint.name], deflection).items():
+            if not part.any():
+                continue  # a source this joint does not have
+            turned = _rotated(axes, part[..., 3:])
+            moved = _rotated(axes, part[..., :3])
+            shares[source][joint.name] = moved + np.cross(turned, arms[:, None])
+            turns[source][joint.name] = turned
+    return shares, turns
+
+
+def _rotated(axes: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """:math:`R_q v_{kq}` (Q, P, 3): axes (Q, 3, 3), vectors (P, Q, 3)."""
+    out: np.ndarray = vectors.transpose(1, 0, 2) @ axes.transpose(0, 2, 1)
+    return out
+
+
+def _total(parts: dict[str, dict[str, np.ndarray]]) -> np.ndarray:
+    """The sum of every source's and joint's share, (Q, P, 3)."""
+    arrays = [share for by in parts.values() for share in by.values()]
+    total: np.ndarray = np.sum(arrays, axis=0)
+    return total
+
+
+def _motion(contact: str) -> str:
+    """What a contact's free motion is, in words: its drive's backlash, its axial play, the
+    radial play of a journal end, or the contact's name."""
+    if contact == "backlash":
+        return "backlash"
+    if contact == "axial":
+        return "axial play"
+    if contact.startswith("end"):
+        return "radial play"
+    return contact
+
+
+def _payload_point(point: Any) -> np.ndarray | None:
+    if point is None:
+        return None
+    values = np.asarray(point, dtype=float) if _numbers(point) else None
+    if values is None or values.shape != (3,) or not np.isfinite(values).all():
+        raise ArgumentError("payload_point", "a point (x, y, z) [m] in the output frame", point)
+    return values
+
+
+def _numbers(values: Any) -> bool:
+    try:
+        return np.asarray(values).dtype.kind in "iuf"
+    except (TypeError, ValueError):
+        return False
 
 
 def _configurations(configurations: Any, nq: int) -> np.ndarray:
@@ -209,10 +472,21 @@ def _configurations(configurations: Any, nq: int) -> np.ndarray:
     return poses
 
 
+def _listed(payloads: Any) -> list[Any]:
+    """The payloads as a list (one given alone: a list of it)."""
+    return [payloads] if isinstance(payloads, (int, float, PointForce, Torque)) else list(payloads)
+
+
+def _mass(payload: Any) -> float | None:
+    """A payload's mass [kg], None for a load case."""
+    return float(payload) if isinstance(payload, (int, float)) else None
+
+
 def _payload_cases(
-    mechanism: Mechanism, output: str, payloads: Any
+    mechanism: Mechanism, output: str, payloads: Any, point: np.ndarray | None = None
 ) -> tuple[list[list[Any]], tuple[str, ...]]:
-    """Each payload as a load case and its label; a mass [kg] hangs at the output's origin."""
+    """Each payload as a load case and its label; a mass [kg] hangs at ``point`` (the output
+    frame [m]; None: its origin)."""
     if isinstance(payloads, (int, float, PointForce, Torque)):
         payloads = [payloads]
     cases, labels = [], []
@@ -224,20 +498,36 @@ def _payload_cases(
         if isinstance(payload, (int, float)):
             if not (np.isfinite(payload) and payload >= 0.0):
                 raise ArgumentError(f"payloads[{index}]", "a mass >= 0 [kg]", payload)
-            link, point = mechanism.link_point(output)
+            link, where = _hanging_point(mechanism, output, point)
             weight = [0.0, 0.0, -STANDARD_GRAVITY * float(payload)]
-            cases.append([PointForce(link, weight, point)] if payload else [])
+            cases.append([PointForce(link, weight, where)] if payload else [])
+            check_load_magnitudes(cases[-1], f"payloads[{index}]")
             labels.append(f"{float(payload):g} kg")
             continue
         loads = list(payload)
         for load in loads:
             if not isinstance(load, (PointForce, Torque, Gravity)):
                 raise ArgumentError(f"payloads[{index}]", "PointForce, Torque or Gravity", load)
+        check_load_magnitudes(loads, f"payloads[{index}]")  # what double precision carries
         cases.append(loads)
         labels.append(", ".join(_describe(load) for load in loads) or "no load")
     if not cases:
         raise ArgumentError("payloads", "at least one payload", payloads)
     return cases, tuple(labels)
+
+
+def _hanging_point(
+    mechanism: Mechanism, output: str, point: np.ndarray | None
+) -> tuple[str, np.ndarray]:
+    r"""(the link the output moves with, ``point`` (output frame [m]; None: its origin) in that
+    link's frame [m]): :math:`p_{link} = {}^{link}M_{output}\, p`."""
+    link, origin = mechanism.link_point(output)
+    if point is None:
+        return link, origin
+    model = mechanism.model
+    placed = model.frames[find_frame(model, output)].placement
+    at = model.frames[mechanism.link_frames[link]].placement
+    return link, (at.inverse() * placed).act(point)
 
 
 def _describe(load: Any) -> str:

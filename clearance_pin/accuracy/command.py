@@ -8,9 +8,13 @@ Poses: ``--poses N`` random commands of the driven joints, uniform within ``--ra
 nominal pose (radians for revolute drives, metres for prismatic ones) and inside the joints'
 limits (``--seed``), or ``--configurations FILE``: one q per line (whitespace- or
 comma-separated, Pinocchio's order). Payloads: ``--payload KG`` (repeatable; a mass hung at the
-output, default 0 kg); the robot's own weight with ``--gravity``. Prints the largest deviation
-and where, per payload the largest and median, and the joints ranked by their share; ``--json``
-writes the summary in SI (add ``--poses-json`` for every pose's numbers), ``--plot`` the picture.
+output's origin, or at ``--payload-point X,Y,Z`` in the output frame [m], default 0 kg); the
+robot's own weight with ``--gravity``. Prints the largest deviation and where, the largest reach
+(the deviation plus every motion the load leaves free: a driven joint without load torque inside
+its backlash, an unloaded axial play) and the free motions, per payload the largest and median,
+and the joints ranked by their share; ``--json`` writes the summary in SI (add ``--poses-json``
+for every pose's numbers), ``--csv`` one row per pose and payload, ``--plot`` the picture,
+``--plot-workspace`` the deviation coloured on the tool's positions (two projections).
 Exit status: 0, or as the other sub-commands (2 bad input, 3 a load along a free motion, 4 a
 solver failure).
 """
@@ -65,8 +69,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="KG",
         help="a mass hung at the output [kg] (repeatable; default 0)",
     )
+    parser.add_argument(
+        "--payload-point",
+        metavar="X,Y,Z",
+        help="where the payload mass hangs, in the output frame [m] (default: its origin)",
+    )
     parser.add_argument("--gravity", action="store_true", help="the robot's own weight on")
     parser.add_argument("--plot", type=Path, metavar="FILE", help="draw the map (PNG, ...)")
+    parser.add_argument(
+        "--plot-workspace",
+        type=Path,
+        metavar="FILE",
+        help="the deviation and reach coloured on the tool's positions (PNG, ...)",
+    )
+    parser.add_argument(
+        "--csv", type=Path, metavar="FILE", help="one row per pose and payload (SI)"
+    )
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the summary (SI)")
     parser.add_argument(
         "--poses-json", action="store_true", help="with --json: every pose's numbers too"
@@ -84,7 +102,11 @@ def run(args: argparse.Namespace) -> int:
         else random_poses(mechanism, args.poses, args.range, args.seed)
     )
     amap = mechanism.accuracy(
-        args.output, poses, payloads=args.payload or [0.0], gravity=True if args.gravity else None
+        args.output,
+        poses,
+        payloads=args.payload or [0.0],
+        gravity=True if args.gravity else None,
+        payload_point=payload_point(args.payload_point),
     )
     print(table(amap))
     if args.plot:
@@ -92,6 +114,14 @@ def run(args: argparse.Namespace) -> int:
 
         plot_accuracy(amap, mechanism, args.plot)
         print(f"plot written to {args.plot}")
+    if args.plot_workspace:
+        from .plot import plot_workspace
+
+        plot_workspace(amap, mechanism, args.plot_workspace)
+        print(f"workspace plot written to {args.plot_workspace}")
+    if args.csv:
+        amap.to_csv(args.csv, _q_names(mechanism))
+        print(f"CSV written to {args.csv}")
     if args.json:
         document = {
             "schema": ACCURACY_SCHEMA,
@@ -101,6 +131,31 @@ def run(args: argparse.Namespace) -> int:
         args.json.write_text(json.dumps(document, indent=1))
         print(f"JSON written to {args.json}")
     return 0
+
+
+def payload_point(text: str | None) -> list[float] | None:
+    """``--payload-point X,Y,Z`` [m] as three numbers (None: not given)."""
+    if text is None:
+        return None
+    parts = text.replace(" ", "").split(",")
+    try:
+        values = [float(part) for part in parts]
+    except ValueError:
+        values = []
+    if len(values) != 3 or not all(np.isfinite(values)):
+        raise ArgumentError("--payload-point", "three numbers X,Y,Z [m] in the output frame", text)
+    return values
+
+
+def _q_names(mechanism: Any) -> list[str]:
+    """A name per coordinate of q: the joint's, with its index when it has several."""
+    model = mechanism.model
+    names: list[str] = []
+    for joint in range(1, model.njoints):
+        size = model.joints[joint].nq
+        name = model.names[joint]
+        names += [name] if size == 1 else [f"{name}[{k}]" for k in range(size)]
+    return names
 
 
 def random_poses(mechanism: Any, count: int, half_range: float, seed: int) -> np.ndarray:
@@ -150,14 +205,34 @@ def table(amap: Any) -> str:
         f"{amap.output}: {amap.configurations.shape[0]} poses x {len(amap.payloads)} payloads, "
         f"all verified: {'yes' if amap.ok.all() else 'NO'}",
         f"largest deviation {largest * UM:.2f} um (pose {pose}, payload {amap.payloads[payload]})",
-        f"{'payload':>12}  {'largest [um]':>12}  {'median [um]':>12}  {'largest turn [urad]':>19}",
+        f"{'payload':>12}  {'largest [um]':>12}  {'median [um]':>12}  {'largest turn [urad]':>19}"
+        f"  {'largest reach [um]':>18}",
     ]
     for k, label in enumerate(amap.payloads):
         turn = np.nanmax(np.linalg.norm(amap.rotation[:, k], axis=1)) * UM
+        column = amap.reach[:, k] if amap.reach is not None else np.full(1, np.nan)
+        reach = f"{np.nanmax(column) * UM:18.2f}" if np.isfinite(column).any() else f"{'-':>18}"
         lines.append(
             f"{label:>12}  {np.nanmax(norms[:, k]):12.2f}  {np.nanmedian(norms[:, k]):12.2f}  "
-            f"{turn:19.2f}"
+            f"{turn:19.2f}  {reach}"
         )
+    reach, at, case = amap.largest_reach()
+    if np.isfinite(reach):
+        free = ", ".join(amap.responsible(at, case)) or "none"
+        lines.insert(
+            2,
+            f"largest reach {reach * UM:.2f} um (pose {at}, payload {amap.payloads[case]}): "
+            f"the deviation plus the motions its load leaves free ({free})",
+        )
+        if amap.free_spread is not None:
+            spread = np.nanmax(amap.free_spread) * UM
+            lines.insert(3, f"the free motions alone move it up to {spread:.2f} um")
+        lines.append("free motions (no load holds them; the output may sit anywhere in them):")
+        total = amap.ok.size
+        for name, mask in amap.free_motions.items():
+            lines.append(f"  {name:<36} in {int(mask.sum())} of {total} cases")
+    else:
+        lines.insert(2, "reach: not computed (loop joints, couplings or joints not independent)")
     lines.append("what moves the output most (largest share over the map):")
     for source, joint, value in amap.ranking():
         lines.append(f"  {joint:<24} {source:<9} {value * UM:10.2f} um")

@@ -38,6 +38,15 @@ def plot_accuracy(amap: AccuracyMap, mechanism: Mechanism, path: str | Path | No
     spread, where, sources = figure.subplots(1, 3, gridspec_kw={"width_ratios": [1.0, 1.2, 1.3]})
     norms = np.linalg.norm(amap.translation, axis=2) * UM  # (Q, P)
     _payload_spread(spread, norms, amap.payloads)
+    if amap.reach is not None and np.isfinite(amap.reach).any():
+        spread.plot(
+            range(1, len(amap.payloads) + 1),
+            np.nanmax(amap.reach, axis=0) * UM,
+            "v",
+            color="tab:red",
+            label="largest reach (free motions included)",
+        )
+        spread.legend(loc="upper left", fontsize="small")
     _workspace(figure, where, amap, mechanism, norms[:, -1])
     _contributors(sources, amap)
     largest, pose, payload = amap.largest()
@@ -49,6 +58,66 @@ def plot_accuracy(amap: AccuracyMap, mechanism: Mechanism, path: str | Path | No
     )
     save(figure, path)
     return figure
+
+
+def plot_workspace(
+    amap: AccuracyMap, mechanism: Mechanism, path: str | Path | None, payload: int = -1
+) -> Any:
+    """Draw the output's deviation over the workspace into ``path`` (PNG, PDF, SVG; None: only
+    return the figure): its nominal positions [mm], world frame, seen from above (x, y) and from
+    the side (x, z), coloured by |delta p| [um] under payload ``payload`` (default the last);
+    where the reach was computed, a second row colours the same points by the band, reach minus
+    deviation [um]: how much farther the motions the load leaves free can take it."""
+    label = amap.payloads[payload]
+    norms = np.linalg.norm(amap.translation[:, payload], axis=1) * UM
+    reach = None if amap.reach is None else amap.reach[:, payload] * UM
+    with_reach = reach is not None and bool(np.isfinite(reach).any())
+    figure = new_figure(12.0, 9.6 if with_reach else 5.0)
+    axes = figure.subplots(2 if with_reach else 1, 2, squeeze=False)
+    points = _positions(amap, mechanism) * MM
+    values = [("deviation |delta p|", norms)]
+    if with_reach:
+        assert reach is not None
+        values.append(("band: reach - |delta p|", reach - norms))
+    for row, (name, value) in enumerate(values):
+        top = float(np.nanmax(value)) if np.isfinite(value).any() else 1.0
+        order = np.argsort(np.nan_to_num(value, nan=-1.0))  # the largest drawn last, on top
+        for column, (a, b, view) in enumerate(((0, 1, "top view"), (0, 2, "side view"))):
+            ax = axes[row, column]
+            drawn = ax.scatter(points[order, a], points[order, b], c=value[order], s=10,
+                               cmap="viridis", vmin=0.0, vmax=max(top, 1e-3))  # fmt: skip
+            ax.set_xlabel(f"{'xyz'[a]} [mm] (world)")
+            ax.set_ylabel(f"{'xyz'[b]} [mm] (world)")
+            ax.set_aspect("equal", adjustable="datalim")
+            ax.set_title(f"{name}, {view}")
+            ax.grid(alpha=0.3)
+            bar = figure.colorbar(drawn, ax=ax)
+            bar.set_label(f"{name} of {amap.output} [um]")
+    where = (
+        ""
+        if amap.payload_point is None
+        else (
+            f" at ({', '.join(f'{v * MM:g}' for v in amap.payload_point)}) mm in {amap.output}'s frame"
+        )
+    )
+    figure.suptitle(
+        f"{mechanism.name}: {amap.output}'s deviation over {amap.configurations.shape[0]} poses, "
+        f"payload {label}{where}; positions and displacements in the world frame"
+    )
+    save(figure, path)
+    return figure
+
+
+def _positions(amap: AccuracyMap, mechanism: Mechanism) -> np.ndarray:
+    """The output's nominal position at every pose, (Q, 3) [m], world frame."""
+    model = mechanism.model
+    data = model.createData()
+    frame = model.getFrameId(amap.output)
+    points = np.empty((amap.configurations.shape[0], 3))
+    for i, q in enumerate(amap.configurations):
+        pin.framesForwardKinematics(model, data, q)
+        points[i] = data.oMf[frame].translation
+    return points
 
 
 def _payload_spread(ax: Any, norms: np.ndarray, labels: tuple[str, ...]) -> None:
@@ -65,13 +134,7 @@ def _payload_spread(ax: Any, norms: np.ndarray, labels: tuple[str, ...]) -> None
 def _workspace(
     figure: Any, ax: Any, amap: AccuracyMap, mechanism: Mechanism, norms: np.ndarray
 ) -> None:
-    model = mechanism.model
-    data = model.createData()
-    frame = model.getFrameId(amap.output)
-    points = np.empty((amap.configurations.shape[0], 3))
-    for i, q in enumerate(amap.configurations):
-        pin.framesForwardKinematics(model, data, q)
-        points[i] = data.oMf[frame].translation
+    points = _positions(amap, mechanism)
     order = np.argsort(np.nan_to_num(norms, nan=-1.0))  # the largest drawn last, on top
     drawn = ax.scatter(
         points[order, 0] * MM, points[order, 1] * MM, c=norms[order], s=12, cmap="viridis"
@@ -111,4 +174,4 @@ def _contributors(ax: Any, amap: AccuracyMap) -> None:
     ax.grid(axis="x", alpha=0.3)
 
 
-__all__ = ["plot_accuracy"]
+__all__ = ["plot_accuracy", "plot_workspace"]
