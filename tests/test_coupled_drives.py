@@ -98,6 +98,9 @@ def test_a_leader_s_backlash_reaches_its_follower(force):
     assert exact.ok
     second_order = BACKLASH * np.linalg.norm(expected)
     assert np.allclose(moved(exact, "link2", TOOL), expected, atol=3 * second_order)
+    # the follower's exact torsor holds its coupled turn too (found by a new user: it was 0)
+    assert exact.torsor("j2")[3] == pytest.approx(MULTIPLIER * turn, abs=BACKLASH**2)
+    assert exact.difference["torsor_rotation_rad"] < BACKLASH**2
 
 
 def test_a_force_through_the_leader_s_axis_moves_the_tool_through_the_coupling():

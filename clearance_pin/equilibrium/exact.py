@@ -30,7 +30,7 @@ from ..errors import SolverError, UnboundedLoadError, UnsupportedError
 from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import Placement, compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
-from ..model.couplings import driven, passive
+from ..model.couplings import coupled_joint, driven, passive
 from ..model.joints import LoopJoint, TreeJoint
 from ..model.stiffness import elastic
 from ..numerics import Array, Mask, null_space
@@ -310,12 +310,13 @@ class ExactProblem:
         )
 
 
-def _coupled_turns(mechanism: Mechanism, x: ca.SX) -> dict[str, ca.SX]:
+def _coupled_turns(mechanism: Mechanism, x: Any) -> dict[str, Any]:
     r"""Per follower of a driven leader, the turn (slide) its coupling adds to its own motion,
     :math:`m\, \delta q_l` [rad or m], :math:`\delta q_l` the leader's whole motion about its
     axis: its play's and its spring's exp coordinates along it (one axis: they add exactly) plus
-    its own coupled turn (a chain); :mod:`..model.couplings`. The unknowns ``x`` in the order
-    the problem stacks them (per tree joint its play, then its spring's)."""
+    its own coupled turn (a chain); :mod:`..model.couplings`. The unknowns ``x`` (CasADi
+    symbols or numbers) in the order the problem stacks them (per tree joint its play, then its
+    spring's)."""
     couplings = driven(mechanism.couplings, mechanism.joints)
     if not couplings:
         return {}
@@ -324,12 +325,12 @@ def _coupled_turns(mechanism: Mechanism, x: ca.SX) -> dict[str, ca.SX]:
         basis = tree_joint_basis(joint)
         directions, _ = elastic(joint.clearance)
         columns = np.hstack([basis, directions])
-        if joint.motion_component is not None and columns.shape[1]:
+        if joint.motion_component is not None:
             along = columns[joint.motion_component]
-            own[joint.name] = ca.dot(ca.DM(along), x[offset : offset + columns.shape[1]])
+            own[joint.name] = sum(a * x[offset + i] for i, a in enumerate(along) if a)
         offset += columns.shape[1]
     whole: dict[str, Any] = dict(own)
-    turns: dict[str, ca.SX] = {}
+    turns: dict[str, Any] = {}
     for coupling in couplings:  # leaders before followers
         turns[coupling.follower] = coupling.multiplier * whole.get(coupling.leader, 0.0)
         whole[coupling.follower] = own.get(coupling.follower, 0.0) + turns[coupling.follower]
@@ -739,8 +740,25 @@ def _settles_nearby(
 def _coordinates(linear: Equilibrium, joint: TreeJoint) -> Array:
     """A tree joint's unknowns in the linear answer: its play's, then its spring's (if any)."""
     deflection = linear.deflection(joint.name)
-    play = tree_joint_basis(joint).T @ (linear.torsors[joint.name] - deflection)
+    own = linear.torsors[joint.name] - deflection
+    coupling = _leader_motion(linear, joint.name)
+    if coupling is not None:  # a follower's torsor also holds its leader's motion (m dq_l)
+        multiplier, leader = coupling
+        own = own - np.eye(6)[cast(int, joint.motion_component)] * multiplier * leader
+    play = tree_joint_basis(joint).T @ own
     return np.concatenate([play, _spring_coordinates(linear, joint)])
+
+
+def _leader_motion(linear: Equilibrium, follower: str) -> tuple[float, float] | None:
+    """(m, the leader's whole motion about its axis [rad or m]) in the linear answer for a
+    follower of a driven leader, else None."""
+    mechanism = cast("Mechanism", linear.mechanism)
+    for coupling in driven(mechanism.couplings, mechanism.joints):
+        if coupling.follower == follower:
+            leader = coupled_joint(mechanism.joints, coupling.leader)
+            motion = linear.torsors[leader.name][cast(int, leader.motion_component)]
+            return coupling.multiplier, float(motion)
+    return None
 
 
 def _spring_coordinates(linear: Equilibrium, joint: TreeJoint | LoopJoint) -> Array:
@@ -791,18 +809,24 @@ def _assemble(
     relatives = dict(zip(mechanism.joints, parts.poses[model.njoints :]))
     torsors, deflections = {}, {}
     x = problem.scale * z
+    coupled = _coupled_turns(mechanism, x)
     offset = 0
     for joint in mechanism.tree_joints:
         basis = tree_joint_basis(joint)
         torsors[joint.name] = basis @ x[offset : offset + basis.shape[1]]
         offset += basis.shape[1]
         directions, stiffnesses = elastic(joint.clearance)
+        moved = pin.exp6(pin.Motion(torsors[joint.name]))
         if stiffnesses.size:  # the play then the spring: exp(B t) exp(D e)
             spring = directions @ x[offset : offset + stiffnesses.size]
             offset += stiffnesses.size
-            moved = pin.exp6(pin.Motion(torsors[joint.name])) * pin.exp6(pin.Motion(spring))
-            torsors[joint.name] = np.array(pin.log6(moved).vector)
+            moved = moved * pin.exp6(pin.Motion(spring))
             deflections[joint.name] = spring
+        if joint.name in coupled:  # turned with its leader first (ExactProblem's placements)
+            turn = np.eye(6)[cast(int, joint.motion_component)] * float(coupled[joint.name])
+            moved = pin.exp6(pin.Motion(turn)) * moved
+        if stiffnesses.size or joint.name in coupled:
+            torsors[joint.name] = np.array(pin.log6(moved).vector)
     for loop in mechanism.loop_joints:
         M = relatives[loop.name]  # its play
         placement = pin.SE3(M[:, :3], M[:, 3])
