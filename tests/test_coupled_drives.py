@@ -230,3 +230,27 @@ def test_cycles_of_couplings_are_refused_by_name(mimics):
     </clearance_pin></robot>"""
     with pytest.raises(cp.ModelError, match=r"cycle \((j\d -> )+j\d"):
         cp.loads(text)
+
+
+def test_the_accuracy_map_credits_a_coupled_turn_to_its_leader():
+    """The elbow turns with the shoulder's drive: the map's shares name the shoulder's backlash
+    and drive compliance, (J_1 + m J_2) sign(G) b/2 and (J_1 + m J_2) G/k at the tool (found by
+    a new user: it credited them to the elbow, as backlash), and sum to the tool's motion."""
+    k1 = 2e5
+    arm = cp.loads(belt_arm(leader=f'backlash="{BACKLASH}" drive_stiffness="{k1}"'))
+    force = np.array([3.0, -40.0, 0.0])
+    _, jacobian = point_jacobians(arm, "link2", TOOL)
+    i1, i2 = velocity_index(arm, "j1"), velocity_index(arm, "j2")
+    generalised = jacobian.T @ force
+    motor = generalised[i1] + MULTIPLIER * generalised[i2]
+    _, origin = point_jacobians(arm, "link2", np.zeros(3))  # the map's output: link2's origin
+    column = origin[:, i1] + MULTIPLIER * origin[:, i2]
+    amap = arm.accuracy(
+        "link2", [arm.q_nominal], payloads=[[cp.PointForce("link2", force, TOOL)]], gravity=False
+    )
+    shares = dict(((source, joint), value) for source, joint, value in amap.ranking())
+    backlash = np.linalg.norm(column) * BACKLASH / 2
+    compliance = np.linalg.norm(column) * abs(motor) / k1
+    assert shares[("backlash", "j1")] == pytest.approx(backlash, rel=1e-9)
+    assert shares[("drive compliance", "j1")] == pytest.approx(compliance, rel=1e-9)
+    assert all(value < 1e-9 * backlash for (_, joint), value in shares.items() if joint == "j2")

@@ -11,7 +11,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -19,6 +19,7 @@ from ..arguments import check_load_magnitudes
 from ..errors import ArgumentError, NotFoundError
 from ..kinematics.joint_shares import joint_levers
 from ..model import plausibility
+from ..model.couplings import coupled_joint, driven
 from ..model.frames import frame_id as find_frame
 from ..model.joints import TreeJoint
 from ..model.loads import Gravity, PointForce, Torque
@@ -378,7 +379,8 @@ def _general_route(
         ok[:, k] = batch.ok
         if not ok[:, k].any() and isinstance(first := batch[0], Exception):
             raise first  # no pose solves: a fault of the model or the payload, said once
-        for name in levers:
+        leaders = {c.leader for c in driven(mechanism.couplings, mechanism.joints)}
+        for name in {*levers, *leaders}:  # a leader's motion also moves its followers
             torsors[name][k] = batch.torsors(name)
             if name in springs:
                 springs[name][k] = batch.deflections(name)
@@ -403,19 +405,56 @@ def _split(
     shape = (count, payloads, 3)
     shares = {s: {j.name: np.zeros(shape) for j in mechanism.tree_joints} for s in SOURCES}
     turns = {s: {j.name: np.zeros(shape) for j in mechanism.tree_joints} for s in SOURCES}
+    coupled = _coupled_sources(mechanism, torsors, springs)
     for joint in mechanism.tree_joints:
         if joint.name not in levers:
             continue  # not between the ground and the output: it does not move it
         axes, arms = levers[joint.name]
         deflection = springs.get(joint.name)
-        for source, part in _by_source(joint, torsors[joint.name], deflection).items():
+        torsor = torsors[joint.name]
+        inherited = coupled.get(joint.name, {})
+        parts: list[tuple[str, str, np.ndarray]] = []
+        if inherited:  # a follower's coupled turn is its leaders' backlash and compliance
+            motion = cast(int, joint.motion_component)
+            torsor = torsor.copy()
+            for (origin, source), amount in inherited.items():
+                torsor[..., motion] -= amount
+                part = np.zeros_like(torsor)
+                part[..., motion] = amount
+                parts.append((source, origin, part))
+        for source, part in _by_source(joint, torsor, deflection).items():
+            parts.append((source, joint.name, part))
+        for source, owner, part in parts:
             if not part.any():
                 continue  # a source this joint does not have
             turned = _rotated(axes, part[..., 3:])
             moved = _rotated(axes, part[..., :3])
-            shares[source][joint.name] = moved + np.cross(turned, arms[:, None])
-            turns[source][joint.name] = turned
+            shares[source][owner] = shares[source][owner] + moved + np.cross(turned, arms[:, None])
+            turns[source][owner] = turns[source][owner] + turned
     return shares, turns
+
+
+def _coupled_sources(
+    mechanism: Mechanism, torsors: dict[str, np.ndarray], springs: dict[str, np.ndarray]
+) -> dict[str, dict[tuple[str, str], np.ndarray]]:
+    r"""Per follower of a driven leader, its coupled turn (P, Q) [rad or m] by where it comes
+    from, (joint, source) -> amount: :math:`m\,(\beta_l + e_l)` from its leader's backlash and
+    drive compliance, and m times what its leader inherits from its own (a chain)
+    (:mod:`..model.couplings`)."""
+    coupled: dict[str, dict[tuple[str, str], np.ndarray]] = {}
+    for coupling in driven(mechanism.couplings, mechanism.joints):  # leaders first
+        leader = coupled_joint(mechanism.joints, coupling.leader)
+        along = cast(int, leader.motion_component)
+        inherited = coupled.get(leader.name, {})
+        own = torsors[leader.name][..., along] - sum(inherited.values(), 0.0)
+        spring = springs.get(leader.name)
+        elastic = 0.0 * own if spring is None else spring[..., along]
+        m = coupling.multiplier
+        parts = {(leader.name, "backlash"): m * (own - elastic)}
+        parts[(leader.name, "drive compliance")] = m * elastic
+        parts.update({key: m * amount for key, amount in inherited.items()})
+        coupled[coupling.follower] = {key: a for key, a in parts.items() if np.any(a)}
+    return coupled
 
 
 def _rotated(axes: np.ndarray, vectors: np.ndarray) -> np.ndarray:
