@@ -254,3 +254,20 @@ def test_the_accuracy_map_credits_a_coupled_turn_to_its_leader():
     assert shares[("backlash", "j1")] == pytest.approx(backlash, rel=1e-9)
     assert shares[("drive compliance", "j1")] == pytest.approx(compliance, rel=1e-9)
     assert all(value < 1e-9 * backlash for (_, joint), value in shares.items() if joint == "j2")
+
+
+def test_a_lock_or_a_drive_term_a_coupling_cannot_hold_is_refused_by_name():
+    """Found by a new user: a lock on a follower whose leader moves was silently ignored (the
+    follower moved with its leader), and backlash on the follower of a passive leader asked for
+    driven="true", which the next error then refused. Both now say what holds the follower."""
+    locked = belt_arm().replace("</clearance_pin>", '<lock joint="j2"/></clearance_pin>')
+    locked = locked.replace(
+        '<joint name="j2" type="revolute" radial_clearance="0" axial_clearance="0" length="0.02"\n'
+        "           />",
+        "",
+    )
+    with pytest.raises(cp.ModelError, match=r"lock joint='j2'.*follows 'j1'.*lock the leader"):
+        cp.loads(locked)
+    passive = belt_arm(leader="", follower='backlash="4e-4"').replace('driven="true"', "")
+    with pytest.raises(cp.ModelError, match=r"j2.*backlash belong to a drive.*follows 'j1'"):
+        cp.loads(passive)

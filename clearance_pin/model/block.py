@@ -477,6 +477,19 @@ class _BlockReader:
                 raise ModelError(
                     self.source, label, "a floating joint has no single motion to drive"
                 )
+            drive_terms = [a for a in ("backlash", "drive_stiffness") if element is not None
+                           and element.get(a) is not None]  # fmt: skip
+            passive_leader = next((c.leader for c in self.joints.couplings if c.follower == name
+                                   and name not in followers), None)  # fmt: skip
+            if drive_terms and passive_leader is not None and not driven:
+                raise ModelError(
+                    self.source,
+                    label,
+                    f"{' and '.join(drive_terms)} belong to a drive, and this joint follows "
+                    f"{passive_leader!r} through its <mimic>, which is not driven: drive the "
+                    f'leader (driven="true" on {passive_leader!r}) to hold both, and the '
+                    "follower's own backlash becomes the coupling's deadband",
+                )
             if element is not None and element.get("backlash") is not None:
                 clearance = self._with_backlash(element, label, clearance, driven, motion)
             clearance = self._with_stiffness(element, label, clearance, motion if driven else None)
@@ -526,6 +539,16 @@ class _BlockReader:
                     f"its leader {coupling.leader!r} is not driven, so it is not either: the "
                     "coupling holds it to its passive leader; drive the leader instead "
                     '(driven="true") or remove driven',
+                )
+        for coupling in couplings:
+            leader_locked = coupling.leader in self.locked
+            if coupling.follower in self.locked and not leader_locked:
+                raise ModelError(
+                    self.source,
+                    f"<lock joint='{coupling.follower}'>",
+                    f"it follows {coupling.leader!r} through its <mimic>, which is not locked: "
+                    "the coupling moves it with its leader, so a lock cannot hold it; lock the "
+                    f"leader {coupling.leader!r} too (both then rigid), or remove this lock",
                 )
         placed = coupled(self.model, couplings, q)
         for coupling in couplings:
