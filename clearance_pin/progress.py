@@ -1,42 +1,58 @@
-"""A minimal progress bar on standard error, shown only when standard error is a terminal."""
+"""Progress of long work on standard error, through tqdm: an estimate of the time left, the rate,
+a label a user reads ("solving load cases", not a function's name); a notebook gets its widget
+(``tqdm.auto``). Shown only when standard error is a terminal (or a notebook), unless forced;
+tqdm is imported only when a bar is shown."""
 
 from __future__ import annotations
 
 import sys
-import time
+from typing import Any
 
 
 class Progress:
-    """Counts work done and redraws one line at most ten times a second.
+    """Counts work done; tqdm redraws at most ten times a second.
 
     Args:
         total: number of items.
-        label: text before the bar.
+        label: what is being done, as a user reads it.
         enabled: None: only when stderr is a terminal; True/False to force.
+        unit: what one item is (``"case"``, ``"position"``, ``"sample"``).
     """
 
-    def __init__(self, total: int, label: str = "", enabled: bool | None = None) -> None:
+    def __init__(
+        self, total: int, label: str = "", enabled: bool | None = None, unit: str = "it"
+    ) -> None:
         self.total = max(int(total), 1)
         self.label = label
-        self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.enabled = _interactive() if enabled is None else enabled
         self.done = 0
-        self._started = time.perf_counter()
-        self._drawn = 0.0
+        self._bar: Any = None
+        if self.enabled:
+            from tqdm.auto import tqdm
+
+            self._bar = tqdm(
+                total=self.total, desc=label, unit=unit, file=sys.stderr, mininterval=0.1,
+                dynamic_ncols=True, leave=True,
+            )  # fmt: skip
 
     def update(self, count: int = 1) -> None:
         """Record ``count`` more items done."""
         self.done += count
-        now = time.perf_counter()
-        if self.enabled and (now - self._drawn > 0.1 or self.done >= self.total):
-            self._drawn = now
-            fraction = min(self.done / self.total, 1.0)
-            bar = "#" * int(30 * fraction)
-            rate = self.done / max(now - self._started, 1e-9)
-            sys.stderr.write(f"\r{self.label} [{bar:<30}] {self.done}/{self.total} {rate:,.0f}/s")
-            sys.stderr.flush()
+        if self._bar is not None:
+            self._bar.update(count)
 
     def close(self) -> None:
-        """End the line."""
-        if self.enabled:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
+        """End the bar (its last line stays, with the time taken)."""
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+def _interactive() -> bool:
+    """Standard error is a terminal, or this runs in a Jupyter kernel."""
+    if sys.stderr.isatty():
+        return True
+    return "ipykernel" in sys.modules
+
+
+__all__ = ["Progress"]

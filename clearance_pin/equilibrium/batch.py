@@ -510,7 +510,7 @@ def solve_many(
     if options.outputs is not None:  # an unknown frame refused now, not in every case
         resolve_outputs(mechanism, (), options.outputs)
     show = progress if progress is not None else (None if len(cases) > 100 else False)
-    bar = Progress(len(cases), "solve_many", show)
+    bar = Progress(len(cases), "solving load cases", show, unit="case")
     if executor is None and not exact and backend == "auto":
         from .block_batch import solve_blocks  # closed forms of a tree's independent joints
 

@@ -134,7 +134,8 @@ def monte_carlo(
     stats = _Moments(len(closure.outputs), keep, limits)
     bar = Progress(
         samples,
-        "Monte Carlo",
+        "Monte Carlo mechanisms",
+        unit="sample",
         enabled=progress if progress is not None else (None if samples >= 1_000_000 else False),
     )
     workers = min(4, os.cpu_count() or 1) if workers is None else max(1, int(workers))

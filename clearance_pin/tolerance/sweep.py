@@ -326,7 +326,8 @@ def sweep(
     current = _joint_value(model, q, joint_id)
     bar = Progress(
         positions,
-        "sweep",
+        "sweeping the driven joint",
+        unit="position",
         enabled=progress if progress is not None else (None if samples else False),
     )
     rows: list[Sensitivities] = []
