@@ -232,8 +232,6 @@ def test_two_cylinder_shaft_holds_its_spin_and_slide_where_the_linear_answer_put
         assert answer.note.count("'I1' alpha") == 1 and "'I1' u" not in answer.note
 
 
-@pytest.mark.filterwarnings("ignore::clearance_pin.ConditioningWarning")
-@pytest.mark.filterwarnings("ignore::clearance_pin.SuspectValueWarning")
 @settings(
     max_examples=120,
     deadline=None,
@@ -246,9 +244,20 @@ def test_random_mechanisms_with_free_motions_are_answered(spec):
     """Random mechanisms, loads cleared of their components along the motions nothing blocks:
     where the linear model answers, the exact model answers too (or its Newton step and IPOPT do
     not reach a verified optimum: "did not reach a verified optimum", 8 of 184 drawn with free
-    motions, refused by the library before this change too), never refused for what holding the
-    free motions takes; that share is within the second-order size c_max / L + the largest
-    rotation of a part (computed here) and draws no warning."""
+    motions, refused by the library before this change too: a contact set that changes at
+    second order), never refused for what holding the free motions takes; that share is within
+    the second-order size c_max / L + the largest rotation of a part (computed here) and draws
+    no warning. The warnings a drawn model gives are recorded and must be the generator's: a
+    play out of proportion (SuspectValueWarning) or a loop near a toggle (ConditioningWarning)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _solve_both(spec)
+    kinds = {type(w.message) for w in caught}
+    assert kinds <= {cp.SuspectValueWarning, cp.ConditioningWarning}, kinds
+
+
+def _solve_both(spec) -> None:
+    """The body of the test above: both models on one drawn mechanism."""
     mechanism = cp.loads(spec.urdf(), source="<random mechanism>")
     loads = bounded_loads(Oracle(mechanism), mechanism.resolve_loads(None, None))
     if not loads:
@@ -259,14 +268,12 @@ def test_random_mechanisms_with_free_motions_are_answered(spec):
         return  # judged by test_random_mechanisms.py
     if linear.status != "optimal" or not linear.ok:
         return
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", HeldMotionWarning)
-        try:
-            answer = mechanism.solve(loads=loads, gravity=False, exact=True)
-        except SolverError as error:
-            assert "did not reach a verified optimum" in str(error), str(error)
-            event("exact: not verified")
-            return
+    try:
+        answer = mechanism.solve(loads=loads, gravity=False, exact=True)
+    except SolverError as error:
+        assert "did not reach a verified optimum" in str(error), str(error)
+        event("exact: not verified")
+        return
     assert answer.ok
     event("exact: free motions held" if answer.residuals["held_by_gauge"] > 1e-8 else "exact")
     play = max(c.clearance for c in answer.contacts)
