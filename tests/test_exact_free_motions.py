@@ -197,6 +197,7 @@ def test_a_share_beyond_the_second_order_size_is_warned(monkeypatch):
     with pytest.warns(HeldMotionWarning, match="more than the model's second-order size") as got:
         answer = mechanism.solve(loads=loads, exact=True)
     assert len(got) == 1
+    assert got[0].filename == __file__  # it points at the caller of Mechanism.solve
     text = str(got[0].message)
     assert text.count("'I1' alpha") == 1 and "'I2'" not in text
     torque = answer.reaction("I1", frame="world").held[3:]

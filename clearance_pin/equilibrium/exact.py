@@ -455,7 +455,8 @@ def solve_exact_model(
             equilibrium,
         )
     if warning is not None:
-        warnings.warn(HeldMotionWarning(f"{mechanism.name}: {warning}"), stacklevel=5)
+        # stacklevel: the caller of Mechanism.solve (solve_case, _formulated, exact_from_linear)
+        warnings.warn(HeldMotionWarning(f"{mechanism.name}: {warning}"), stacklevel=6)
     return equilibrium
 
 
