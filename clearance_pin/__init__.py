@@ -24,6 +24,7 @@ from .errors import (
     ClearancePinError,
     ClearancePinWarning,
     ConditioningWarning,
+    HeldMotionWarning,
     LoadError,
     ModelError,
     NearSingularError,
@@ -70,6 +71,7 @@ __all__ = [
     "SuspectValueWarning",
     "StiffnessLeftOutWarning",
     "ConditioningWarning",
+    "HeldMotionWarning",
 ]
 
 

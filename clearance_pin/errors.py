@@ -227,6 +227,15 @@ class ConditioningWarning(ClearancePinWarning):
     small-displacement answer loses accuracy roughly as 1 / conditioning."""
 
 
+class HeldMotionWarning(ClearancePinWarning):
+    """The exact model's answer holds a motion the small-displacement model leaves free (a
+    shaft's spin, a slide; held where the linear answer puts it, as whatever drives it would)
+    with more of the load than the model's second-order size (the largest play over the part
+    size): the answer then depends on what holds that motion, not only on the contacts. The
+    motions, the force or torque holding each and its share of the load are in the message
+    (docs/method.md section 4)."""
+
+
 class StiffnessLeftOutWarning(ClearancePinWarning):
     """An analysis of the play alone (the envelope, the accuracy map) on a mechanism whose joints
     have stiffness: their elastic deflection is not in its figures (the joints are named)."""

@@ -53,14 +53,11 @@ def test_resolve_reuses_the_built_problem_and_matches_a_fresh_solve(backend):
 
 
 def _exact(solve, loads):
-    """The exact answer, or the one a SolverError carries when only the gauge holds a share of the
-    load: the transverse torque works along the spin that the play has tilted (issue 21: such an
-    answer is not ok)."""
-    try:
-        return solve(loads=loads, exact=True)
-    except cp.SolverError as error:
-        assert "only the gauge holds that share" in str(error)
-        return error.answer
+    """The exact answer (the transverse torque works along the spin that the play has tilted,
+    held as the linear model holds it: ok, issue 33 item 7)."""
+    answer = solve(loads=loads, exact=True)
+    assert answer.ok
+    return answer
 
 
 def test_exact_resolve_reuses_the_built_problem():

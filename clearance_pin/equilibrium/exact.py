@@ -10,13 +10,18 @@ positions of the contact points, :math:`d = p + R r - r`; rigid loop components 
 rotations. The potential is the exact work of the loads (:mod:`.load_terms`).
 
 The same unknowns as the linear model are used, so the linear solution is the warm start, and the
-motions that no contact sees are fixed by the same gauge (minimum-norm in the linear sense).
-The difference from the linear model is of second order (rotation x displacement).
+motions that no contact sees (a shaft's spin, a slide: the mechanism's own motions, held by
+whatever drives them) are held where the linear answer leaves them, at zero, by equalities whose
+multipliers are the force or torque that takes at the solved pose (:func:`_holding`; reported in
+the residuals, the note and the reactions' ``held`` part, a ``HeldMotionWarning`` beyond the
+model's second-order size). The difference from the linear model is of second order (rotation x
+displacement).
 """
 
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, cast
@@ -26,10 +31,10 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from ..errors import SolverError, UnboundedLoadError, UnsupportedError
+from ..errors import HeldMotionWarning, SolverError, UnsupportedError
 from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import Placement, compose, inverse, rotation_vee_antisym, se3_exp
-from ..model.clearance import ALPHA, BETA, GAMMA
+from ..model.clearance import ALPHA, BETA, COMPONENT_MEANING, COMPONENT_NAMES, GAMMA
 from ..model.couplings import coupled_joint, driven, passive
 from ..model.joints import LoopJoint, TreeJoint
 from ..model.stiffness import elastic
@@ -42,10 +47,10 @@ from .method import Method
 from .outputs import OutputPoint, output_displacements, resolve_outputs
 from .prepared import linear_setup, statics_weights
 from .reactions import frames_at
-from .reduction import ReducedProblem
+from .reduction import ReducedProblem, describe_motion
 from .residuals import STATICS_TOLERANCE, Residuals
 from .result import Contact, Equilibrium
-from .small_displacement import tree_joint_basis
+from .small_displacement import SmallDisplacementMaps, tree_joint_basis
 
 if TYPE_CHECKING:  # the mechanism module imports this one
     from ..model.loads import Load
@@ -292,7 +297,7 @@ class ExactProblem:
         if gauge.size:
             gauge = gauge / np.linalg.norm(gauge, axis=0)
             # one row per coordinate where the free motions are coordinates (a spin, a slide), so
-            # that each can be released alone (solve_exact_model)
+            # that each one's multiplier is the force or torque holding it (_holding)
             support = np.flatnonzero(np.linalg.norm(gauge, axis=1) > 1e-12)
             if support.size == gauge.shape[1]:
                 gauge = np.eye(gauge.shape[0])[:, support]
@@ -392,7 +397,7 @@ def solve_exact_model(
     if linear.status == "indeterminate":  # nothing moves: the exact answer is the nominal one
         unmoved = replace(linear, formulation="exact", linear=linear, output_points=points)
         return replace(unmoved, difference=_difference(unmoved, linear, points))
-    configuration, _maps, body_loads, problem = linear_setup(mechanism, loads, q)
+    configuration, maps, body_loads, problem = linear_setup(mechanism, loads, q)
     rows = independent_rows(problem.equalities, problem.scale)
     key = ("exact", problem.signature(), problem.free_motions.shape[1], rows, tol)
     problems = mechanism.cache.exact_problems
@@ -439,20 +444,9 @@ def solve_exact_model(
         # a valley of equilibria (the exact potential flat along motions that keep the active
         # contacts) is left where the path reached it: take the point nearest the linear answer
         z, lam, parts = _nearest_on_flat_directions(exact, z0, z, lam, parts, params)
-    equilibrium = _assemble(
+    equilibrium, holding = _assemble(
         mechanism, exact, problem, configuration, z, lam, parts, sigma, stats, polished is not None
     )
-    if equilibrium.residuals["held_by_gauge"] > STATICS_TOLERANCE:
-        # at the solved pose the load works on a motion the linear answer left free (the spin of
-        # a shaft whose axis the play tilted): let that motion settle too, if it does nearby
-        settled = _settle_free_motions(exact, problem, z, lam, parts, params)
-        if settled is not None:
-            z, lam, parts = settled
-            polished = settled
-            stats = {"return_status": f"{stats['return_status']}, free motions settled"}
-            equilibrium = _assemble(
-                mechanism, exact, problem, configuration, z, lam, parts, sigma, stats, True
-            )
     equilibrium = replace(
         equilibrium,
         method=method,
@@ -464,41 +458,26 @@ def solve_exact_model(
         output_points=points,
     )
     equilibrium = replace(equilibrium, difference=_difference(equilibrium, linear, points))
-    held = equilibrium.residuals["held_by_gauge"]
-    if held > STATICS_TOLERANCE:
-        rotation = max(
-            (float(np.linalg.norm(t[3:])) for t in equilibrium.torsors.values()), default=0.0
-        )
-        if held > HELD_SHARE * max(rotation, 1e-9):
-            raise UnboundedLoadError(
-                [
-                    f"{d}, which the load works on at the exact model's solved pose (not in the "
-                    "linear model) without settling nearby"
-                    for d in problem.free_descriptions
-                ],
-                held,
-            )
-        note = (
-            f"exact: {held:.2g} of the load works, at the solved pose, along the motions the "
-            "linear model leaves free (a torque on a part whose free spin the play has tilted) "
-            "and they do not settle nearby; they are held where the linear answer puts them, as a "
-            "drive or the least friction would (reported as the reactions' 'held' part)"
-        )
-        equilibrium = replace(equilibrium, note=note)
-        # no contact carries that share: the answer is no equilibrium of the mechanism, and
-        # where the gauge holds the motion is a convention, not the mechanism's (issue 21)
-        raise SolverError(
-            f"no exact equilibrium: {held:.2g} of the load works, at the exact model's solved "
-            "pose, along motions the linear model leaves free ("
-            + "; ".join(problem.free_descriptions)
-            + "), which do not settle nearby; only the gauge holds that share (no contact "
-            "carries it, and where the gauge holds the motion is a convention, not the "
-            "mechanism's). Lock those motions (a drive, an ideal joint) or use the "
-            "small-displacement answer (exact=False); the held answer is the error's .answer",
-            str(stats["return_status"]),
-            equilibrium.residuals,
+    warning = None
+    if holding.share > STATICS_TOLERANCE:
+        listed = _holding_text(mechanism, problem, maps, holding)
+        equilibrium = replace(
             equilibrium,
+            note=(
+                "exact: the motions the linear model leaves free are held where the linear answer "
+                "puts them, as whatever drives them would (the reactions' 'held' part); at the "
+                f"solved pose that takes {holding.share:.2g} of the load: {listed}"
+            ),
         )
+        size = second_order_size(mechanism, equilibrium)
+        if holding.share > HOLDING_SIZE * size:
+            warning = (
+                f"exact: holding the motions the linear model leaves free takes {holding.share:.2g} "
+                f"of the load at the solved pose, more than the model's second-order size "
+                f"{size:.2g} (the largest play over the part size plus the largest rotation of "
+                "a part): the answer depends on what holds them (a drive, "
+                f"friction), not only on the contacts: {listed}"
+            )
     if not equilibrium.ok:
         raise SolverError(
             "the exact solve did not reach a verified optimum",
@@ -506,7 +485,145 @@ def solve_exact_model(
             equilibrium.residuals,
             equilibrium,
         )
+    if warning is not None:
+        # stacklevel: the caller of Mechanism.solve (solve_case, _formulated, exact_from_linear)
+        warnings.warn(HeldMotionWarning(f"{mechanism.name}: {warning}"), stacklevel=6)
     return equilibrium
+
+
+# holding the free motions takes a share of the load of second order: at most the model's own
+# second-order size (second_order_size) times this; more is warned (HeldMotionWarning)
+HOLDING_SIZE = 1.0
+
+
+@dataclass(frozen=True)
+class Holding:
+    """What holding the motions the linear model leaves free takes at the exact answer's pose.
+
+    Attributes:
+        share: the holding generalised forces weighed like the statics residual (forces [N],
+            moments over the length scale [N]) over the load's size (:func:`_statics`'s
+            reference), dimensionless; 0 without free motions.
+        motions: per gauge row (one free motion), ``(row, force, share)``: the generalised force
+            [N along a slide, N m about a spin] that holds it when the motion is one coordinate,
+            its unknown's index ``row`` (-1 and NaN otherwise: a motion of several coordinates),
+            and its own share of the load.
+        directions: the gauge rows' motions in the unknowns x (n, gauges) (for their names).
+    """
+
+    share: float
+    motions: tuple[tuple[int, float, float], ...]
+    directions: Array
+
+
+def _holding(
+    mechanism: Mechanism,
+    exact: ExactProblem,
+    problem: ReducedProblem,
+    parts: ExactParts,
+    lam: Array,
+    sigma: float,
+) -> tuple[Array, Holding]:
+    r"""Split what the loads and the contact forces leave of the exact stationarity among the
+    loops' rigid conditions and the gauge rows (least squares):
+
+    .. math:: \nabla_z (V / \sigma) + J_c^T \lambda + J_E^T \nu + \hat K \mu = r,
+
+    r the stationarity left (returned, (n,)). The gauge rows :math:`\hat K^T z = 0` hold each
+    motion the linear model leaves free where the linear answer puts it, as whatever drives it
+    would: the generalised force holding motion k is
+    :math:`Q_k = -\sigma \mu_k \hat K_k / Z` [N, N m] (one coordinate i:
+    :math:`-\sigma \mu_k / Z_i`, the force along a slide or the torque about a spin), and its
+    share of the load is :math:`\lVert (W/Z) \hat K_k \mu_k \rVert / \max(\lVert (W/Z)
+    \nabla_z V/\sigma \rVert, \ell / \sigma)`, weighed as the statics residual
+    (:func:`_statics`: forces [N], moments over the length scale [N])."""
+    n_in = len(exact.contacts)
+    jacobian = parts.jacobian
+    gauges = exact.gauge_count
+    equalities = jacobian[n_in:]
+    residual = parts.gradient + jacobian[:n_in].T @ lam[:n_in]
+    if not equalities.shape[0]:
+        return residual, Holding(0.0, (), np.zeros((residual.size, 0)))
+    coefficients = np.linalg.lstsq(equalities.T, -residual, rcond=None)[0]
+    left = residual + equalities.T @ coefficients
+    if not gauges:
+        return left, Holding(0.0, (), np.zeros((residual.size, 0)))
+    gauge = equalities[equalities.shape[0] - gauges :].T  # (n, gauges): K-hat, unit columns
+    mu = coefficients[coefficients.size - gauges :]
+    weights = statics_weights(problem.scale, problem.translational, mechanism.length_scale())
+    factor = weights / problem.scale
+    reference = max(float(np.linalg.norm(factor * parts.gradient)), problem.load_size / sigma)
+    reference = reference if reference > 0.0 else 1.0
+    motions = []
+    for k in range(gauges):
+        column = gauge[:, k]
+        support = np.flatnonzero(np.abs(column) > 1e-12)
+        single = support.size == 1
+        row = int(support[0]) if single else -1
+        force = -sigma * mu[k] * column[row] / problem.scale[row] if single else float("nan")
+        motions.append((row, float(force), float(np.linalg.norm(factor * column) * abs(mu[k]))
+                        / reference))  # fmt: skip
+    share = float(np.linalg.norm(factor * (gauge @ mu)) / reference)
+    return left, Holding(share, tuple(motions), problem.scale[:, None] * gauge)
+
+
+def _holding_text(
+    mechanism: Mechanism, problem: ReducedProblem, maps: SmallDisplacementMaps, holding: Holding
+) -> str:
+    """Each free motion held by more than round-off (a share above the statics tolerance; the
+    largest one at least) once, with what holds it: the torque [N m] about a spin or the force [N]
+    along a slide (a motion of several coordinates: its share only) and its share of the load."""
+    names = _coordinate_names(mechanism)
+    translational = problem.translational
+    shares = [share for _, _, share in holding.motions]
+    largest = int(np.argmax(shares))
+    listed = []
+    for k, (row, force, share) in enumerate(holding.motions):
+        if share <= STATICS_TOLERANCE and k != largest:
+            continue
+        if row >= 0 and names[row] is not None:
+            unit = "N" if translational is None or translational[row] else "N m"
+            listed.append(f"{names[row]}: {force:.3g} {unit} ({share:.2g} of the load)")
+        else:
+            motion = describe_motion(
+                maps, mechanism.joints, holding.directions[:, k], mechanism.length_scale()
+            )
+            listed.append(f"the motion of {', '.join(motion)}: {share:.2g} of the load")
+    return "; ".join(listed)
+
+
+def _coordinate_names(mechanism: Mechanism) -> list[str | None]:
+    """Per unknown x_i, the tree joint component it is (``joint 'I1' alpha (spin about the joint
+    axis)``), None for a spring's or a combination of components."""
+    names: list[str | None] = []
+    for joint in mechanism.tree_joints:
+        basis = tree_joint_basis(joint)
+        for column in basis.T:
+            component = int(np.argmax(np.abs(column)))
+            unit = np.count_nonzero(np.abs(column) > 1e-12) == 1
+            names.append(
+                f"joint {joint.name!r} {COMPONENT_NAMES[component]} "
+                f"({COMPONENT_MEANING[component]})"
+                if unit
+                else None
+            )
+        names.extend([None] * elastic(joint.clearance)[1].size)
+    for loop in mechanism.loop_joints:
+        names.extend([None] * elastic(loop.clearance)[1].size)
+    return names
+
+
+def second_order_size(mechanism: Mechanism, answer: Equilibrium) -> float:
+    r"""The exact model's own second-order size (dimensionless): the largest play over the
+    mechanism's length scale plus the largest rotation of a part in ``answer`` [rad],
+    :math:`c_{max} / L_{ref} + \max_b \lvert \theta_b \rvert`. The exact answer differs from
+    the linear one by about that fraction; a free motion's axis tilts by at most the rotation of
+    the part it moves and shifts by at most the play, so the load it turns towards that motion is
+    at most this share of the load (a couple C tilted by theta: C theta; a force F at a lever l
+    from an axis shifted by d: F (l theta + d), over the load's F + F l / L_ref)."""
+    play = float(answer.residuals["clearance_m"])
+    rotation = max((float(np.linalg.norm(r)) for _, r in answer.body_motions.values()), default=0.0)
+    return play / max(mechanism.length_scale(), 1e-300) + rotation
 
 
 def _linear_start(
@@ -548,16 +665,15 @@ def polish_exact(
     at_upper: Mask | None = None,
     at_lower: Mask | None = None,
     iterations: int = 12,
-    released: Mask | None = None,
     steps: list[int] | None = None,
 ) -> Polished | None:
     r"""Active-set Newton on the exact KKT system from a nearby point; None unless verified
     (``steps``: the Newton steps taken are appended to it).
 
     Active: the equalities, and the contact constraints ``at_upper`` / ``at_lower`` (default:
-    those within 1e-6 of their bound or carrying a multiplier, from IPOPT's answer). The gauge
-    rows (the last ``exact.gauge_count`` equalities) marked in ``released`` (bool, (gauges,)) are
-    left out: those motions nothing blocks settle where the load holds them at the solved pose.
+    those within 1e-6 of their bound or carrying a multiplier, from IPOPT's answer); the gauge
+    rows (the last ``exact.gauge_count`` equalities) among the equalities: their multipliers are
+    what holding the motions nothing blocks takes (:func:`_holding`).
     Solves :math:`\nabla f + J_A^T \lambda_A = 0`, :math:`g_A = b_A` with the exact
     Lagrangian Hessian, then accepts only if every contact multiplier pushes (>= 0 in the sense of
     its bound), every other contact is feasible, and the residual is at round-off.
@@ -575,11 +691,6 @@ def polish_exact(
     if not (np.any(at_upper) or np.any(at_lower) or exact.springs):
         return None  # nothing touches and nothing curves the potential: no Newton system
     equalities = np.arange(n_in, lower.size)
-    if released is not None:
-        gauge_rows = equalities[equalities.size - exact.gauge_count :]
-        lam = lam.copy()
-        lam[gauge_rows[released]] = 0.0
-        equalities = np.setdiff1d(equalities, gauge_rows[released])
     active = np.concatenate([np.flatnonzero(at_upper | at_lower), equalities])
     target = np.where(at_lower, lower[:n_in], upper[:n_in])
     targets = np.concatenate([target, np.zeros(lower.size - n_in)])[active]
@@ -674,69 +785,6 @@ def _nearest_on_flat_directions(
     return z, lam, parts
 
 
-NEARBY_ROTATION = 0.1  # [rad] a motion that settles further than this is no settling in the play
-# a share of the load along a free motion at the solved pose may be held at the gauge when it is of
-# second order: at most this many times the largest joint rotation of the answer [per rad]
-HELD_SHARE = 10.0
-
-
-def _settle_free_motions(
-    exact: ExactProblem,
-    problem: ReducedProblem,
-    z: Array,
-    lam: Array,
-    parts: ExactParts,
-    params: ca.DM,
-) -> Polished | None:
-    """Release the gauge rows the load pulls on at the solved pose (all of them, else each alone,
-    most pulled first) and keep the first answer that settles nearby (:func:`_settles_nearby`);
-    None when none does."""
-    pull = np.abs(lam[lam.size - exact.gauge_count :])
-    pulled = pull > STATICS_TOLERANCE * max(float(np.linalg.norm(parts.gradient)), 1e-300)
-    trials = [pulled]
-    if pulled.sum() > 1:
-        for row in np.argsort(-pull)[: int(pulled.sum())]:
-            trials.append(np.arange(pull.size) == row)
-    for released in trials:
-        answer = polish_exact(exact, z, lam, params, released=released)
-        if answer is not None and _settles_nearby(exact, problem, *answer):
-            return answer
-    return None
-
-
-def _settles_nearby(
-    exact: ExactProblem, problem: ReducedProblem, z: Array, lam: Array, parts: ExactParts
-) -> bool:
-    r"""The released answer is a stable equilibrium near the nominal pose: the Hessian of the
-    Lagrangian is positive semi-definite on the motions that keep the active constraints
-    (:math:`N^T \nabla^2 L\, N \succeq 0`, to 1e-9 of its size), no joint turns by more than
-    :data:`NEARBY_ROTATION` and none slides by more than ten times the largest scale of the
-    unknowns (a dead couple along a tilted free spin turns the part a quarter turn: that is no
-    equilibrium in the play)."""
-    n_in = len(exact.shapes)
-    gauge_rows = np.arange(exact.lower.size - exact.gauge_count, exact.lower.size)
-    kept_gauges = gauge_rows[lam[gauge_rows] != 0.0]
-    rows = np.concatenate(
-        [
-            np.flatnonzero(lam[:n_in] != 0.0),
-            np.arange(n_in, exact.lower.size - exact.gauge_count),
-            kept_gauges,
-        ]
-    )
-    keep = null_space(parts.jacobian[rows]) if rows.size else np.eye(z.size)
-    if keep.shape[1]:
-        reduced = keep.T @ parts.hessian @ keep
-        size = max(1.0, float(np.abs(parts.hessian).max()))
-        if np.linalg.eigvalsh(0.5 * (reduced + reduced.T)).min() < -1e-9 * size:
-            return False
-    relative = parts.poses[len(parts.poses) - len(exact.mechanism.joints) :]
-    reach = 10.0 * float(problem.scale.max(initial=0.0))
-    return all(
-        np.linalg.norm(pin.log3(M[:, :3])) <= NEARBY_ROTATION and np.linalg.norm(M[:, 3]) <= reach
-        for M in relative
-    )
-
-
 def _coordinates(linear: Equilibrium, joint: TreeJoint) -> Array:
     """A tree joint's unknowns in the linear answer: its play's, then its spring's (if any)."""
     deflection = linear.deflection(joint.name)
@@ -803,7 +851,9 @@ def _assemble(
     sigma: float,
     stats: Mapping[str, Any],
     polished_multipliers: bool = False,
-) -> Equilibrium:
+) -> tuple[Equilibrium, Holding]:
+    """The answer at (z, lambda): torsors, poses, contacts with their forces (touching ones split
+    by least norm), residuals; and what holding the free motions takes there (:func:`_holding`)."""
     model = mechanism.model
     placed = parts.poses[: model.njoints]
     relatives = dict(zip(mechanism.joints, parts.poses[model.njoints :]))
@@ -893,23 +943,10 @@ def _assemble(
         )
     scaled_gradient, jacobian, energy = parts.gradient, parts.jacobian, parts.energy
     inequality_jacobian = jacobian[:n_inequality]
-    # the loop joints' rigid conditions hold loads; the gauge rows (the last ones) only pick a
-    # point along the motions nothing blocks, so a load they would hold is an imbalance
-    gauges = problem.free_motions.shape[1]
-    loop_jacobian = jacobian[n_inequality : jacobian.shape[0] - gauges]
-    residual = scaled_gradient + inequality_jacobian.T @ lam[:n_inequality]
-    if loop_jacobian.size:
-        nu = np.linalg.lstsq(loop_jacobian.T, -residual, rcond=None)[0]
-        residual = residual + loop_jacobian.T @ nu
-    held = residual
-    if gauges:
-        gauge_jacobian = jacobian[jacobian.shape[0] - gauges :]
-        both = np.vstack([loop_jacobian, gauge_jacobian])
-        held = residual + both.T @ np.linalg.lstsq(both.T, -residual, rcond=None)[0]
-    reference = float(np.linalg.norm(scaled_gradient)) or 1.0
+    left, holding = _holding(mechanism, exact, problem, parts, lam, sigma)
     violation = max((max(-c.gap, 0.0) for c in contacts), default=0.0)
     residuals = {
-        "stationarity": float(np.max(np.abs(held), initial=0.0)),
+        "stationarity": float(np.max(np.abs(left), initial=0.0)),
         "statics": _statics(
             mechanism,
             problem,
@@ -918,9 +955,9 @@ def _assemble(
             inequality_jacobian.T @ lam[:n_inequality],
             jacobian[n_inequality:],
         ),
-        # share of the load only the gauge holds: at the solved pose it works along a motion
-        # nothing blocks (a free spin axis the play has tilted)
-        "held_by_gauge": float(np.linalg.norm(residual - held) / reference),
+        # what holding the motions the linear model leaves free takes at the solved pose (a
+        # shaft's spin whose axis the play has tilted), a share of the load (_holding)
+        "held_by_gauge": holding.share,
         "dual_infeasibility": float(
             max(
                 0.0,
@@ -935,7 +972,7 @@ def _assemble(
         "clearance_m": max((c.clearance for c in contacts), default=0.0),
         "closure": float(np.max(np.abs(parts.closure), initial=0.0)),
     }
-    return Equilibrium(
+    equilibrium = Equilibrium(
         formulation="exact",
         torsors=torsors,
         body_motions=body_motions,
@@ -959,6 +996,7 @@ def _assemble(
         configuration=configuration,
         deflections=deflections or None,
     )
+    return equilibrium, holding
 
 
 def _split_multipliers(
