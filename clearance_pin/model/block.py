@@ -420,7 +420,7 @@ class _BlockReader:
         followers: set[str] = set()  # a chain's: a follower's follower is held too
         try:
             ordered = in_order(self.joints.couplings)
-        except ValueError:
+        except ModelError:
             ordered = ()  # a cycle: refused by name below (_coupled)
         for c in ordered:
             if c.leader in followers or _boolean(

@@ -92,7 +92,8 @@ def _drive_spring(joint: Any) -> bool:
 
 def in_order(couplings: Iterable[Coupling]) -> tuple[Coupling, ...]:
     """The couplings with every leader's own coupling before its followers' (a chain's links in
-    order; a cycle, refused when the model is read (:func:`coupling_cycle`), is a ValueError)."""
+    order; a cycle, refused by name when the model is read (:func:`coupling_cycle`), is a
+    ModelError here too)."""
     left = list(couplings)
     followers = {c.follower for c in left}
     ordered: list[Coupling] = []
@@ -100,7 +101,8 @@ def in_order(couplings: Iterable[Coupling]) -> tuple[Coupling, ...]:
     while left:
         ready = [c for c in left if c.leader not in followers or c.leader in placed]
         if not ready:
-            raise ValueError(f"the couplings of {[c.follower for c in left]} form a cycle")
+            cycle = " -> ".join(c.follower for c in left)
+            raise ModelError("<couplings>", "<mimic>", f"the couplings of {cycle} form a cycle")
         ordered.extend(ready)
         placed.update(c.follower for c in ready)
         left = [c for c in left if c not in ready]
