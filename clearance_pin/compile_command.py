@@ -15,8 +15,8 @@ worst an entry compiled again, never a partial file that a later load reads. The
 compiled again, never loaded stale.
 
 Exit status (:mod:`clearance_pin.commands`): 0 the kernel ready, also when numba is not
-installed (the optional extra ``fast``: the solves go the NumPy way, with the same answers) or
-``CLEARANCE_PIN_COMPILED=0`` switches it off; 5 numba is installed but cannot compile or cache
+installed (a dependency, but a platform may lack its wheels: the solves go the NumPy way, with
+the same answers) or ``CLEARANCE_PIN_COMPILED=0`` switches it off; 5 numba is installed but cannot compile or cache
 the kernel (most often a read-only install: one line naming the problem, and the fix,
 ``NUMBA_CACHE_DIR`` set to a writable folder).
 """
@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         return OK
     if importlib.util.find_spec("numba") is None:
         print(
-            "numba is not installed (the optional extra 'fast'): the solves go the NumPy way, "
+            "numba is not installed (a dependency: pip install numba): the solves go the NumPy way, "
             "with the same answers; nothing to compile"
         )
         return OK
