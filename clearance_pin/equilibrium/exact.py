@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from ..errors import SolverError, UnboundedLoadError, UnsupportedError
+from ..errors import SolverError, UnboundedLoadError, UnsupportedError, motions_listed_once
 from ..kinematics.casadi_kinematics import CasadiKinematics
 from ..kinematics.lie_casadi import Placement, compose, inverse, rotation_vee_antisym, se3_exp
 from ..model.clearance import ALPHA, BETA, GAMMA
@@ -440,12 +440,10 @@ def solve_exact_model(
         )
         if held > HELD_SHARE * max(rotation, 1e-9):
             raise UnboundedLoadError(
-                [
-                    f"{d}, which the load works on at the exact model's solved pose (not in the "
-                    "linear model) without settling nearby"
-                    for d in problem.free_descriptions
-                ],
+                list(problem.free_descriptions),
                 held,
+                "which works on them at the exact model's solved pose (not in the linear model) "
+                "without settling nearby",
             )
         note = (
             f"exact: {held:.2g} of the load works, at the solved pose, along the motions the "
@@ -459,7 +457,7 @@ def solve_exact_model(
         raise SolverError(
             f"no exact equilibrium: {held:.2g} of the load works, at the exact model's solved "
             "pose, along motions the linear model leaves free ("
-            + "; ".join(problem.free_descriptions)
+            + motions_listed_once(problem.free_descriptions)
             + "), which do not settle nearby; only the gauge holds that share (no contact "
             "carries it, and where the gauge holds the motion is a convention, not the "
             "mechanism's). Lock those motions (a drive, an ideal joint) or use the "
