@@ -497,3 +497,23 @@ def test_random_classed_joints_are_placed_as_mujoco():
         qpos = {n: float(rng.uniform(-1, 1)) for n in names}
         worst = max(worst, disagreement(text, model), disagreement(text, model, qpos))
     assert worst < AGREE
+
+
+def test_a_mimic_of_a_fixed_leader_is_refused_naming_the_urdf(tmp_path):
+    """A revolute joint mimicking a fixed one: refused naming the URDF and the mimic (it named
+    the clearance file beside it)."""
+    urdf = tmp_path / "pair.urdf"
+    urdf.write_text(
+        '<robot name="pair"><link name="base"/><link name="a"/><link name="b"/>'
+        '<joint name="weld" type="fixed"><parent link="base"/><child link="a"/></joint>'
+        '<joint name="hinge" type="revolute"><parent link="a"/><child link="b"/>'
+        '<origin xyz="0.1 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" '
+        'velocity="1"/><mimic joint="weld"/></joint></robot>'
+    )
+    clearances = tmp_path / "pair_play.xml"
+    clearances.write_text('<clearance_pin unit="m"/>')
+    with pytest.raises(cp.ModelError) as caught:
+        cp.load(urdf, clearances=clearances)
+    assert caught.value.source == str(urdf)
+    assert caught.value.element == "<joint name='hinge'> <mimic joint='weld'>"
+    assert "its leader is a fixed joint" in caught.value.problem

@@ -46,6 +46,7 @@ from .xml_values import number, vector
 # SIGSEGV between 3757 and 3765 levels on an 8 MB stack (about 2.2 kB per level; 900 levels pass
 # and 1000 crash on a 2 MB stack). 1000 keeps a margin of 3.7 on the usual 8 MB.
 MAX_TREE_DEPTH = 1000
+COUPLED_TYPES = ("revolute", "continuous", "prismatic")  # what a <mimic> couples
 URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 
 # package_dirs of clearance_pin.load: one directory, or a list of them
@@ -149,7 +150,9 @@ def _read(
 
 def _mimicking_joints(source: str, joints: dict[str, ET.Element]) -> list[ET.Element]:
     """The URDF joints whose ``<mimic>`` is read: a mimic on a fixed joint (TALOS's grippers
-    as shipped) moves nothing and is left out, with a warning naming the URDF and the joints."""
+    as shipped) moves nothing and is left out, with a warning naming the URDF and the joints;
+    one whose follower or leader is no revolute, continuous or prismatic joint is refused,
+    naming the URDF (the clearance file was named)."""
     fixed = [
         name
         for name, element in joints.items()
@@ -164,7 +167,26 @@ def _mimicking_joints(source: str, joints: dict[str, ET.Element]) -> list[ET.Ele
             ),
             stacklevel=5,
         )
-    return [element for name, element in joints.items() if name not in fixed]
+    kept = [element for name, element in joints.items() if name not in fixed]
+    for element in kept:
+        mimic = element.find("mimic")
+        if mimic is None or not mimic.get("joint"):
+            continue  # no mimic, or one naming no joint: urdf_couplings says so
+        label = f"<joint name='{element.get('name')}'> <mimic joint='{mimic.get('joint')}'>"
+        for role, joint in (
+            ("the follower", element),
+            ("its leader", joints.get(mimic.get("joint"))),
+        ):
+            if joint is None:
+                raise ModelError(source, label, f"{mimic.get('joint')!r} is no joint of the URDF")
+            if joint.get("type") not in COUPLED_TYPES:
+                raise ModelError(
+                    source,
+                    label,
+                    f"{role} is a {joint.get('type')} joint: a mimic couples revolute, "
+                    "continuous or prismatic joints",
+                )
+    return kept
 
 
 def _package_dirs(package_dirs: PackageDirs) -> tuple[str, ...]:
