@@ -170,15 +170,13 @@ def _mimicking_joints(source: str, joints: dict[str, ET.Element]) -> list[ET.Ele
     kept = [element for name, element in joints.items() if name not in fixed]
     for element in kept:
         mimic = element.find("mimic")
-        if mimic is None or not mimic.get("joint"):
+        leader = mimic.get("joint") if mimic is not None else None
+        if not leader:
             continue  # no mimic, or one naming no joint: urdf_couplings says so
-        label = f"<joint name='{element.get('name')}'> <mimic joint='{mimic.get('joint')}'>"
-        for role, joint in (
-            ("the follower", element),
-            ("its leader", joints.get(mimic.get("joint"))),
-        ):
+        label = f"<joint name='{element.get('name')}'> <mimic joint='{leader}'>"
+        for role, joint in (("the follower", element), ("its leader", joints.get(leader))):
             if joint is None:
-                raise ModelError(source, label, f"{mimic.get('joint')!r} is no joint of the URDF")
+                raise ModelError(source, label, f"{leader!r} is no joint of the URDF")
             if joint.get("type") not in COUPLED_TYPES:
                 raise ModelError(
                     source,
