@@ -259,7 +259,8 @@ def test_a_chain_at_the_limit_is_read():
 
 
 def test_mjcf_bodies_nested_too_deep_are_refused():
-    """Pinocchio's MJCF reader's memory grows as the cube of the depth (0.95 GB at 300)."""
+    """Pinocchio's MJCF reader's memory grows faster than the square of the depth (a load took
+    1.8 GB at 300 bodies, 13.8 GB at 600)."""
     depth = 201
     bodies = "".join(f'<body name="b{i}"><joint name="j{i}"/>' for i in range(depth))
     text = f"<mujoco><worldbody>{bodies}{'</body>' * depth}</worldbody></mujoco>"
