@@ -23,7 +23,8 @@ Exit status:
 - 2: a bad model, load or option: one line naming the file, the element and the problem; bad
   command-line arguments also exit with 2 (argparse's usage message), as does a file that cannot
   be read or written (checked before any work where it can be: ``--plot`` of a known type,
-  ``--json`` in an existing folder);
+  ``--json`` in an existing folder, neither of them an input file), and a count out of its
+  bounds (``accuracy --poses``, ``tolerance --positions``, ``--samples``);
 - 3: no equilibrium: the load drives a motion that nothing blocks (the line names the motion);
   ``envelope``: an output moves without bound along such a motion (the line names it);
 - 4: the solver did not reach a verified answer (the line gives its status and residuals);
@@ -202,12 +203,19 @@ def _failed(args: argparse.Namespace, error: Exception, message: str, status: in
 
 def _check_output_files(args: argparse.Namespace) -> None:
     """``--plot`` and ``--json`` FILE of any sub-command, before any work (a mistyped extension
-    or folder found after a minute's sweep loses the minute)."""
-    from .arguments import PLOT_FORMATS, check_output_file
+    or folder found after a minute's sweep loses the minute), and none of them an input file
+    (the model, the clearance file, accuracy's ``--configurations``)."""
+    from .arguments import PLOT_FORMATS, check_not_an_input, check_output_file
 
+    inputs = {
+        "the model file": getattr(args, "model", None),
+        "the clearance file": getattr(args, "clearances", None),
+        "the --configurations file": getattr(args, "configurations", None),
+    }
     for option, formats in (("plot", PLOT_FORMATS), ("json", ())):
         value = getattr(args, option, None)
         if isinstance(value, Path):  # solve's --json is a flag: the JSON goes to stdout
+            check_not_an_input(f"--{option}", value, inputs)
             check_output_file(f"--{option}", value, formats)
 
 

@@ -16,8 +16,8 @@ compiled again, never loaded stale.
 
 Exit status (:mod:`clearance_pin.commands`): 0 the kernel ready, also when numba is not
 installed (a dependency, but a platform may lack its wheels: the solves go the NumPy way, with
-the same answers) or ``CLEARANCE_PIN_COMPILED=0`` switches it off; 5 numba is installed but cannot compile or cache
-the kernel (most often a read-only install: one line naming the problem, and the fix,
+the same answers) or ``CLEARANCE_PIN_COMPILED=0`` switches it off; 5 numba is installed but
+cannot compile or cache the kernel (most often a read-only install: one line naming the problem, and the fix,
 ``NUMBA_CACHE_DIR`` set to a writable folder).
 """
 

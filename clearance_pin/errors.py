@@ -94,7 +94,8 @@ class NotFoundError(ClearancePinError, KeyError):
     ) -> None:
         self.kind = kind
         self.name = name
-        self.valid = tuple(valid)
+        # each name once (a URDF's link and joint of one name are two frames of that name)
+        self.valid = tuple(dict.fromkeys(valid))
         self.where = where
         self.hint = hint
         listed = ", ".join(map(str, self.valid)) if self.valid else "(none)"
@@ -127,26 +128,53 @@ class LoadError(ClearancePinError, ValueError):
         return (type(self), (self.load, self.problem))
 
 
+def motions_listed_once(motions: Iterable[str]) -> str:
+    """The joint components that motions move, each named once, in the order of their first
+    mention. A motion is described as ``joint 'a' alpha (spin ...); joint 'b' u (...); and 3
+    smaller components (under 20 % of the largest)`` (or given as the list of those parts); the
+    free motions of one mechanism share their joints (nine motions of six joints named the same
+    components nine times, in 4188 characters), so their components are merged and the smaller
+    ones said once."""
+    named: dict[str, None] = {}
+    smaller: dict[str, None] = {}
+    for motion in motions:
+        for part in motion.split("; "):
+            if part.startswith("and ") and "smaller component" in part:
+                smaller.setdefault(part)
+            else:
+                named.setdefault(part)
+    parts = list(named)
+    if len(smaller) == 1:
+        parts.extend(smaller)
+    elif smaller:
+        parts.append("and smaller components (under 20 % of the largest)")
+    return "; ".join(parts)
+
+
 class UnboundedLoadError(ClearancePinError):
     """The load drives a motion that nothing blocks: no equilibrium exists.
 
     Attributes:
         motions: human-readable descriptions of the unblocked motion(s), largest first.
         fraction: share of the (scaled) load that works along the unblocked motion, in [0, 1].
+        where: where the load works along them, when not in the linear model (the exact
+            model's solved pose), or None.
     """
 
-    def __init__(self, motions: list[str], fraction: float) -> None:
+    def __init__(self, motions: list[str], fraction: float, where: str | None = None) -> None:
         self.motions = motions
         self.fraction = fraction
-        listed = "; ".join(motions)
+        self.where = where
+        listed = motions_listed_once(motions)
+        at = f", {where}" if where else ""
         super().__init__(
             "no equilibrium: the load has a component along a motion that no clearance or joint "
-            f"blocks ({fraction:.3g} of the load): {listed}. Lock (drive) that joint, add the "
-            "missing joint, or remove that load component."
+            f"blocks ({fraction:.3g} of the load{at}): {listed}. Lock (drive) that joint, add "
+            "the missing joint, or remove that load component."
         )
 
     def __reduce__(self) -> tuple[type[Self], tuple[Any, ...]]:
-        return (type(self), (self.motions, self.fraction))
+        return (type(self), (self.motions, self.fraction, self.where))
 
 
 class SingularPositionError(UnboundedLoadError):
@@ -156,10 +184,11 @@ class SingularPositionError(UnboundedLoadError):
     :class:`UnboundedLoadError` (same attributes), named for what it is: not a missing joint.
     """
 
-    def __init__(self, motions: list[str], fraction: float) -> None:
+    def __init__(self, motions: list[str], fraction: float, where: str | None = None) -> None:
         self.motions = motions
         self.fraction = fraction
-        listed = "; ".join(motions)
+        self.where = where
+        listed = motions_listed_once(motions)
         ClearancePinError.__init__(
             self,
             "singular position: the loop closure is singular at this configuration (a toggle or "

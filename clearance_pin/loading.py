@@ -38,14 +38,15 @@ def load(
         clearances: a clearance file beside the model (``play.xml``, the block as its own XML
             file, or ``play.toml``; lengths in the unit it states, metres by default), or a dict
             as in :func:`from_model`. A URDF with a block of its own and ``clearances`` is
-            refused (ModelError), not merged.
+            refused (ModelError), not merged; a file with neither is refused too (every answer
+            would be zero): ``clearances={}`` reads its joints as ideal on purpose.
 
     Returns:
         :class:`~clearance_pin.mechanism.Mechanism`, loops closed.
 
     Raises:
         ModelError: a file is unreadable or invalid (naming the file, the element and the
-            problem), or the loops cannot be closed.
+            problem), has no clearance information, or the loops cannot be closed.
     """
     return Mechanism(**read_file(path, package_dirs, clearances).arguments())
 
@@ -88,7 +89,8 @@ def from_model(
             ``{"elbow_joint": {"type": "revolute", "radial_clearance": 1e-5,
             "axial_clearance": 5e-6, "length": 0.03, "driven": True}}``, plus ``"defaults"``:
             joint type -> dict of ``<default>`` attributes (``{"revolute": {...}}``); or a
-            clearance file, as in :func:`load`.
+            clearance file, as in :func:`load`. Neither clearances nor ``loop_joints`` is
+            refused (ModelError); ``{}`` is a model of ideal joints on purpose.
         loop_joints: loop joint name -> dict of ``<loop_joint>`` attributes: ``type``,
             ``frame_a`` and ``frame_b`` (two frames of the model), clearances [m], ``axis``.
         loads: default loads of ``solve``: forces [N] and torques [N m], world axes.

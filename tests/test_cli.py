@@ -390,10 +390,15 @@ def test_envelope_and_tolerance_read_a_clearance_file_beside_the_model(tmp_path,
 
 
 def test_envelope_of_an_output_without_bound_says_unbounded_and_exits_3(tmp_path, capsys):
-    """The 6R arm without its clearances: every joint turns freely, so the tool moves without
-    bound; it printed "largest 0.000000 <= max <= 0.000000 um" and exited 0."""
+    """The 6R arm with an empty clearance file (ideal joints, none driven): every joint turns
+    freely, so the tool moves without bound; it printed "largest 0.000000 <= max <= 0.000000 um"
+    and exited 0."""
     urdf, _ = _beside(tmp_path, MODELS / "arm_6r.urdf")
-    status, out, err = run_command(capsys, "envelope", urdf, "--output", "tool")
+    empty = tmp_path / "ideal.xml"
+    empty.write_text("<clearance_pin/>")
+    status, out, err = run_command(
+        capsys, "envelope", urdf, "--output", "tool", "--clearances", empty
+    )
     assert status == 3
     assert "translation: UNBOUNDED along 3 free direction(s)" in out
     line = one_line(err)

@@ -140,12 +140,22 @@ def test_the_model_is_copied():
     np.testing.assert_allclose(mechanism.solve().torsor("pin_B"), before, rtol=1e-12, atol=1e-18)
 
 
-def test_an_ideal_model_without_clearances():
-    """No clearances: every joint ideal, as a URDF without a block."""
+def test_an_ideal_model_on_purpose():
+    """clearances={}: every joint ideal, asked for (as a URDF with an empty block)."""
     model, _ = ur5_model()
-    mechanism = cp.from_model(model)
+    mechanism = cp.from_model(model, clearances={})
     assert all(j.clearance.max_play == 0.0 for j in mechanism.tree_joints)
     assert mechanism.name == model.name
+
+
+def test_no_clearances_at_all_is_refused():
+    """No clearances and no loop joints: every answer would be zero (issue 33 item 6.1); the
+    error says how to give them."""
+    model, _ = ur5_model()
+    with pytest.raises(cp.ModelError, match="no clearances given") as caught:
+        cp.from_model(model)
+    assert caught.value.element == "clearances"
+    assert "clearances={}" in caught.value.problem
 
 
 # -- refusals --------------------------------------------------------------------------------------
@@ -241,17 +251,17 @@ def test_bad_arguments():
     with pytest.raises(cp.ArgumentError, match="model"):
         cp.from_model(bare)
     with pytest.raises(cp.NotFoundError, match="'slider'"):
-        cp.from_model(model, loads=[PointForce("slider", [1, 0, 0])])
+        cp.from_model(model, loads=[PointForce("slider", [1, 0, 0])], clearances={})
     with pytest.raises(cp.ArgumentError, match=r"loads\[0\]"):
-        cp.from_model(model, loads=[(1, 0, 0)])
+        cp.from_model(model, loads=[(1, 0, 0)], clearances={})
     with pytest.raises(cp.ArgumentError, match="q"):
-        cp.from_model(model, q=[0.0, 1.0])
+        cp.from_model(model, q=[0.0, 1.0], clearances={})
     with pytest.raises(cp.NotFoundError, match="'pin_Z'"):
-        cp.from_model(model, q={"pin_Z": 0.1})
+        cp.from_model(model, q={"pin_Z": 0.1}, clearances={})
     with pytest.raises(cp.ArgumentError, match="gravity"):
-        cp.from_model(model, gravity="on")
+        cp.from_model(model, gravity="on", clearances={})
     with pytest.raises(cp.ArgumentError, match="loop_joints"):
-        cp.from_model(model, loop_joints=[("pin_B", {})])
+        cp.from_model(model, loop_joints=[("pin_B", {})], clearances={})
 
 
 def test_the_docs_example_runs(tmp_path, monkeypatch):

@@ -271,7 +271,7 @@ def test_a_body_pinocchio_misplaces_is_refused():
     from clearance_pin.model.mjcf_placements import read_placements
 
     placements = read_placements(ET.fromstring(ARM_MJCF), "arm.xml", None)
-    model = cp.loads(ARM_MJCF).model
+    model = cp.loads(ARM_MJCF, clearances={}).model  # {}: ideal joints, on purpose
     mjcf.check_placements(model, placements, "arm.xml")  # as read: accepted
     moved = pin.Model(model)
     moved.jointPlacements[2] = pin.SE3(np.eye(3), np.array([0.31, 0.0, 0.0]))

@@ -39,7 +39,7 @@ def mujoco_kinematics(text: str, qpos: dict[str, float] | None = None):
 
 
 def pinocchio_model(text: str) -> pin.Model:
-    return model_file.read_text(text, source="model.xml").model
+    return model_file.read_text(text, source="model.xml", clearances={}).model  # placements only
 
 
 def disagreement(text: str, model: pin.Model, qpos: dict[str, float] | None = None) -> float:
@@ -230,7 +230,7 @@ def test_the_collision_geometry_of_a_composed_root_is_where_mujoco_puts_it(tmp_p
     """The geoms, built from the rewritten file on the composed model, at MuJoCo's geom_xpos."""
     path = tmp_path / "ur.xml"
     path.write_text(FIXED_ROOT)
-    mechanism = cp.load(path)
+    mechanism = cp.load(path, clearances={})  # ideal joints: placements only
     geometry = mechanism.collision_model
     model = mechanism.model
     data = model.createData()
@@ -371,7 +371,7 @@ def test_included_files_are_read_with_their_defaults_and_orientations(tmp_path):
         <geom size="0.02"/><include file="arm.xml"/></body></worldbody></mujoco>"""
     path = tmp_path / "robot.xml"
     path.write_text(text)
-    model = cp.load(path).model
+    model = cp.load(path, clearances={}).model  # ideal joints: placements only
     mj = mujoco.MjModel.from_xml_path(str(path))
     assert mj.nbody == 3
     data = model.createData()
@@ -415,7 +415,7 @@ def test_orientations_from_default_classes_as_mujoco():
     placements to 1e-9, and the geoms' (their collision geometry) too."""
     model = pinocchio_model(DEFAULT_ORIENTATIONS)
     assert disagreement(DEFAULT_ORIENTATIONS, model) < AGREE
-    mechanism = cp.loads(DEFAULT_ORIENTATIONS)
+    mechanism = cp.loads(DEFAULT_ORIENTATIONS, clearances={})  # ideal joints: placements only
     data = model.createData()
     pin.forwardKinematics(model, data, np.array(model.referenceConfigurations["qpos0"]))
     geometry = mechanism.collision_model
@@ -627,7 +627,7 @@ def test_meshes_are_found_beside_the_rewritten_file(tmp_path):
       </body></worldbody></mujoco>"""
     path = tmp_path / "robot.xml"
     path.write_text(text)
-    mechanism = cp.load(path)
+    mechanism = cp.load(path, clearances={})  # ideal joints: placements only
     geometry = mechanism.collision_model
     assert geometry.ngeoms == 1
     model = mechanism.model

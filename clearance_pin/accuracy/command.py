@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from ..arguments import MOST_POSES, check_count, check_seed
 from ..commands import add_model_arguments, model_options
 from ..errors import ArgumentError
 from ..json_documents import ACCURACY_SCHEMA
@@ -51,7 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the ``accuracy`` sub-command."""
     add_model_arguments(parser, " (driven joints: the robot's drives)")
     parser.add_argument("--output", required=True, metavar="FRAME", help="the tool frame")
-    parser.add_argument("--poses", type=int, default=200, help="random poses (default 200)")
+    parser.add_argument(
+        "--poses", type=int, default=200, help=f"random poses (default 200, at most {MOST_POSES})"
+    )
     parser.add_argument(
         "--range",
         type=float,
@@ -95,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the sub-command; returns the exit status."""
     from .. import load
 
+    check_count("--poses", args.poses, 1, MOST_POSES)  # before any work
+    check_seed("--seed", args.seed)
     mechanism = load(args.model, **model_options(args))
     poses = (
         _read_configurations(args.configurations, mechanism.model.nq)

@@ -113,7 +113,7 @@ def _resolve(mechanism: Any, loads: Any, outputs: Any) -> tuple[OutputPoint, ...
         raise ArgumentError("outputs", "a list of Pinocchio frame names", outputs)
     else:
         names = tuple(outputs)
-    valid = [f.name for f in model.frames]
+    valid = list(dict.fromkeys(f.name for f in model.frames))  # a link and a joint share names
     for index, name in enumerate(names):
         if not model.existFrame(name):
             raise ArgumentError(

@@ -382,11 +382,20 @@ def _warn_if_inaccurate(
     """ConditioningWarning for a finite rotation or a nearly singular loop closure."""
     largest_rotation = equilibrium.residuals.largest_rotation_rad or 0.0
     if largest_rotation > FINITE_ROTATION:
+        # a tree has no toggle position: there a large turn is a play large for its journal
+        # (or a soft stiffness)
+        plays = "its plays are large for their journals (a play in the wrong unit?) or a stiffness "
+        plays += "soft for the load"
+        cause = (
+            f"the mechanism is near a toggle position, or {plays}"
+            if mechanism.loop_joints
+            else plays
+        )
         warnings.warn(
             ConditioningWarning(
                 f"{mechanism.name}: the small-displacement answer turns a joint by "
                 f"{largest_rotation:.2g} rad, beyond the model's validity (rotations << 1): "
-                "the mechanism is near a toggle position; solve with exact=True"
+                f"{cause}; solve with exact=True"
             ),
             stacklevel=5,
         )

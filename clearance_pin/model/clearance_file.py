@@ -114,6 +114,25 @@ def clearance_block(
     return read_clearance_file(clearances)
 
 
+def no_clearances(source: str, model_kind: str) -> ModelError:
+    """The error of a model file read with no clearance information at all: no
+    ``<clearance_pin>`` block in it and no clearance file beside it. Its every answer would be
+    zero (ideal joints) -- a silent non-answer, so it is refused with how to add one.
+
+    Args:
+        source: the model file, named in the message.
+        model_kind: ``"URDF"`` or ``"MJCF"`` (an MJCF file takes only a clearance file).
+    """
+    where = f"add a <{BLOCK}> block to the URDF, or " if model_kind == "URDF" else ""
+    return ModelError(
+        source,
+        f"<{BLOCK}>",
+        f"no clearances: the {model_kind} file has no <{BLOCK}> block and no clearance file is "
+        f"given; {where}give a clearance file beside it (clearances='play.toml' in "
+        "clearance_pin.load, --clearances FILE in the command line; docs/model-format.md)",
+    )
+
+
 def read_clearance_file(path: str | os.PathLike[str]) -> ClearanceBlock:
     """Read a clearance file: TOML when its name ends in ``.toml`` or its text does not start
     with ``<``, else XML."""

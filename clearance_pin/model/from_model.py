@@ -22,7 +22,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
-from ..errors import ArgumentError, NotFoundError
+from ..errors import ArgumentError, ModelError, NotFoundError
 from .block import empty_block, joint_table, read_block, read_loop_joints, set_nominal
 from .clearance_file import ClearanceSource, clearance_block, loop_joint_elements
 from .couplings import coupled
@@ -55,7 +55,8 @@ def describe_model(
         clearances: a clearance file (.xml or .toml path), or a dict (SI): joint name -> dict of
             ``<joint>`` attributes (``{"type": "revolute", "radial_clearance": 1e-5, ...}``),
             plus ``"defaults"``: joint type -> dict of ``<default>`` attributes. Joints it does
-            not name (nor a default) are ideal.
+            not name (nor a default) are ideal. None (and no ``loop_joints``) is refused:
+            ``{}`` is a model of ideal joints on purpose.
         loop_joints: loop joint name -> dict of ``<loop_joint>`` attributes (``type``,
             ``frame_a``, ``frame_b``: two frames of the model; clearances [m]; ``axis`` in
             ``frame_a``).
@@ -69,12 +70,21 @@ def describe_model(
         name: the mechanism's name (default: the model's).
 
     Raises:
-        ModelError: a bad clearance, loop joint or file (naming it, the entry and the problem).
+        ModelError: a bad clearance, loop joint or file (naming it, the entry and the problem);
+            no clearances and no loop joints given.
         ArgumentError: an argument of the wrong kind, or given twice (file and argument).
         NotFoundError: a load on a link, or a nominal value of a joint, the model has not.
     """
     if not isinstance(model, pin.Model):
         raise ArgumentError("model", "a pinocchio.Model", model)
+    if clearances is None and loop_joints is None:
+        raise ModelError(
+            source,
+            "clearances",
+            "no clearances given: every joint would be ideal and every answer zero; give "
+            "clearances={joint: {...}} or a clearance file (clearances={} for a model of ideal "
+            "joints on purpose)",
+        )
     given = model
     # a copy, its mimic joints (mimic=True) as ordinary joints tied by couplings
     model, couplings = without_mimic(pin.Model(model), source)

@@ -86,6 +86,16 @@ Kind = Literal["play", "size", "point", "position", "tolerance"]
 OUT_OF_PROPORTION = 10.0  # outside the normal band by this factor: flagged
 CERTAIN = 1000.0  # outside it by this factor: no design explains it, refused
 AGREEING_SIZES = 2  # journal or block lengths all wrong by one unit: the unit line is wrong
+# a play beyond this fraction of its part (and of its own journal) is no fit: ISO 286 fits give
+# 1e-4 .. 5e-3 of the journal, a loose machine 1e-2; every play of a file beyond it: wrong unit
+IMPLAUSIBLE_PLAY = 2e-2
+# a part (a link: the distance between its joint centres and frames) larger than this [m] is
+# warned of, and refused when the block's journals are all too small for their parts by a unit
+# step: the model file's lengths are in that unit (a URDF exported in mm: a UR5's upper arm is
+# 425 m). Cranes' booms aside, machines' parts are shorter; a long chain of short links is not
+# judged by its length.
+LARGE_PART = 20.0
+MODEL_EXPONENTS = (-3,)  # the units a model file is exported in by mistake (mm)
 FINEST_GRADE = "IT1"  # the finest ISO 286 grade of a machined part (IT01, IT0: gauge blocks)
 
 # normal band (low, high) of the ratio of each kind of length to its reference (0, inf: none)
@@ -99,6 +109,11 @@ BANDS: dict[str, tuple[float, float]] = {
     "tolerance/IT1": (1.0, math.inf),
 }
 UNIT_NAMES = {0: "m", -3: "mm", -6: "um"}
+
+
+class ModelScaleError(ModelError):
+    """The model file's own lengths, not the block's, are out of proportion (a URDF exported in
+    mm): the reader of the model file names the file (``problem`` is the message)."""
 
 
 @dataclass(frozen=True)
@@ -258,6 +273,79 @@ def _misdeclared(
     return judged[id(sizes[0])], str(units.pop())
 
 
+def _play_reference(length: Length, geometry: Geometry) -> float:
+    """The size [m] a play is judged against: its own journal or block length when that is in
+    proportion with its part (a play is a fraction of its fit), else its part."""
+    part, _ = geometry.part(length.bodies)
+    own = length.own_length
+    if own > 0.0 and (part <= 0.0 or _out_by(own / part, BANDS["size"]) < OUT_OF_PROPORTION):
+        return own
+    return part
+
+
+def _implausible_plays(
+    lengths: list[Length], geometry: Geometry, exponent: int
+) -> tuple[Length, list[float], str | None] | None:
+    """(the first play, every play's ratio to its reference, the unit meant) when the block has
+    at least two plays and every one is beyond :data:`IMPLAUSIBLE_PLAY` of its journal (of its
+    part without one, :func:`_play_reference`): one play that large may be meant (a loose
+    guide), all of them are a unit (a file stating ``unit = "mm"`` with its plays typed in um).
+    The unit meant: the nearest smaller unit in which every play is within the normal band."""
+    plays = [length for length in lengths if length.kind == "play" and length.value > 0.0]
+    if len(plays) < AGREEING_SIZES:
+        return None
+    ratios = []
+    for play in plays:
+        reference = _play_reference(play, geometry)
+        if reference <= 0.0:
+            return None
+        ratios.append(play.value / reference)
+    if min(ratios) <= IMPLAUSIBLE_PLAY:
+        return None
+    meant = None
+    for other, name in sorted(UNIT_NAMES.items(), reverse=True):
+        if other < exponent and max(ratios) * 10.0 ** (other - exponent) <= BANDS["play"][1]:
+            meant = name
+            break
+    return plays[0], ratios, meant
+
+
+def _model_in_other_unit(
+    lengths: list[Length], findings: list[_Finding], geometry: Geometry
+) -> tuple[_Finding, int] | None:
+    """(the first finding, the exponent of the model's likely unit) when the model, not the
+    block, is in another unit: its largest part is beyond :data:`LARGE_PART` and every
+    journal and block length of the block is too small for its part (out of proportion) but
+    normal with the model's lengths read in that unit."""
+    if max(geometry.sizes, default=0.0) <= LARGE_PART:
+        return None
+    sizes = [length for length in lengths if length.kind == "size" and length.value > 0.0]
+    judged = {id(f.length): f for f in findings if f.length.kind == "size" and not f.too_large}
+    if not sizes or any(id(length) not in judged for length in sizes):
+        return None
+    for exponent in MODEL_EXPONENTS:
+        scale = 10.0**-exponent  # the parts' sizes divided by it: the ratios multiplied
+        if all(_out_by(f.ratio * scale, f.band) == 1.0 for f in judged.values()):
+            return judged[id(sizes[0])], exponent
+    return None
+
+
+def warn_model_scale(source: str, element: str, geometry: Geometry, stacklevel: int) -> None:
+    """SuspectValueWarning for a model whose largest part is beyond :data:`LARGE_PART`: its
+    lengths are likely in mm (a URDF exported in mm, its clearance file in proportion with it,
+    reads every length 1000x and warns of nothing else)."""
+    largest = max(geometry.sizes, default=0.0)
+    if LARGE_PART < largest < math.inf:  # an infinite size is refused as such, not warned
+        warnings.warn(
+            SuspectValueWarning(
+                f"{source}: {element}: the model's largest part is {largest:.6g} m (between its "
+                f"joint centres and frames; warned beyond {LARGE_PART:g} m); was it exported in "
+                "mm? Its lengths are read in metres: a 0.4 m link written in mm is 400 m"
+            ),
+            stacklevel=stacklevel + 1,
+        )
+
+
 def unit_note(unit: str | None, kind: str) -> str:
     """What the block says of its unit, for the messages."""
     if kind == "dict":
@@ -328,6 +416,20 @@ def check_lengths(
     note = unit_note(unit, kind)
     unstated = kind == "file" and unit is None
     findings = [finding for length in lengths for finding in _findings(length, geometry)]
+    # the model's own unit first: it makes every length of the block look wrong
+    model_unit = _model_in_other_unit(lengths, findings, geometry)
+    if model_unit is not None:
+        finding, model_exponent = model_unit
+        raise ModelScaleError(
+            source,
+            "<robot>",
+            f"the model's own lengths look {10.0**-model_exponent:g}x too large: its largest "
+            f"part is {max(geometry.sizes):.6g} m (between its joint centres), and every journal "
+            f"and block length of {source} is too small for its part the same way "
+            f"({finding.length.label}: {finding.length.attribute} {finding.length.value:.6g} m "
+            f"is {finding.ratio:.3g} of {finding.reference:.6g} m); was the model file exported in "
+            f"{UNIT_NAMES[model_exponent]}? Its lengths are read in metres",
+        )
     for finding in findings:  # refused before anything is warned
         if finding.refused or (unstated and finding.too_large):
             raise ModelError(source, finding.length.label, _message(finding, exponent, note))
@@ -341,6 +443,19 @@ def check_lengths(
             f"{'file' if kind == 'file' else 'block'} is out of proportion the same way: its "
             f"lengths are likely in {unit_meant}",
         )
+    if kind == "file":
+        implausible = _implausible_plays(lengths, geometry, exponent)
+        if implausible is not None:
+            first, ratios, plays_meant = implausible
+            hint = f": its plays are likely in {plays_meant}" if plays_meant else ""
+            raise ModelError(
+                source,
+                first.label,
+                f"{first.attribute} {first.value:.6g} m: every play of the file is "
+                f"{100 * min(ratios):.3g} .. {100 * max(ratios):.3g} % of its journal (of its "
+                f"part without one); a play beyond {100 * IMPLAUSIBLE_PLAY:g} % is no fit "
+                f"({note}){hint}",
+            )
     seen: set[tuple[str, str]] = set()
     for finding in findings:
         key = (finding.length.label, finding.length.attribute)
@@ -355,4 +470,12 @@ def check_lengths(
         )
 
 
-__all__ = ["BANDS", "CERTAIN", "OUT_OF_PROPORTION", "Length", "check_lengths"]
+__all__ = [
+    "BANDS",
+    "CERTAIN",
+    "OUT_OF_PROPORTION",
+    "Length",
+    "ModelScaleError",
+    "check_lengths",
+    "warn_model_scale",
+]

@@ -44,6 +44,8 @@ from .mjcf_orientation import (
 ORIENTED = ("body", "frame", "geom", "site", "inertial", "camera", "light")
 DEFAULTED = ("joint", "site", "geom")  # elements whose defaults may place them
 JOINT_DEFAULTS = ("type", "pos", "axis", "ref")
+# MuJoCo's values of those when no class gives them (its <joint> reference)
+BUILT_IN_JOINT = {"type": "hinge", "pos": "0 0 0", "axis": "0 0 1", "ref": "0"}
 PROCEDURAL = ("replicate", "attach", "composite", "flexcomp")
 
 
@@ -297,6 +299,14 @@ def _resolve(
                 if oriented is not None:
                     _set_quat(child, quat)
             child.set("_given", given + frames)
+        if child.tag == "joint" and child.get("type", "hinge") in ("hinge", "slide"):
+            # MuJoCo's own defaults, written out: Pinocchio's reader would take a joint's
+            # missing attribute from its body's childclass even when the joint names another
+            # class (MuJoCo: the joint's class chain, then these; a ball or free joint takes
+            # no axis or ref)
+            for attribute, value in BUILT_IN_JOINT.items():
+                if child.get(attribute) is None:
+                    child.set(attribute, value)
         inner = child.get("childclass", cls) if child.tag in ("body", "frame") else childclass
         # the frames an element sits in are named in its messages
         where = f", inside {label(child)} {given}{frames}" if child.tag == "frame" else ""

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -30,16 +31,22 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
-from ..errors import ArgumentError, ModelError
+from ..errors import ArgumentError, ModelError, SuspectValueWarning
 from .block import BLOCK, ClearanceBlock, JointTable, empty_block, read_block
-from .clearance_file import ClearanceSource, clearance_block
+from .clearance_file import ClearanceSource, clearance_block, no_clearances
 from .couplings import urdf_couplings
 from .description import MechanismDescription, combined_source, describe
+from .length_check import ModelScaleError, warn_model_scale
 from .mjcf import read_mjcf
-from .reference_sizes import urdf_shapes
+from .reference_sizes import Geometry, urdf_shapes
 from .xml_text import decode_xml, parse, xml_text
 from .xml_values import number, vector
 
+# the deepest chain read: Pinocchio's URDF reader recurses once per joint level and crashed with
+# SIGSEGV between 3757 and 3765 levels on an 8 MB stack (about 2.2 kB per level; 900 levels pass
+# and 1000 crash on a 2 MB stack). 1000 keeps a margin of 3.7 on the usual 8 MB.
+MAX_TREE_DEPTH = 1000
+COUPLED_TYPES = ("revolute", "continuous", "prismatic")  # what a <mimic> couples
 URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 
 # package_dirs of clearance_pin.load: one directory, or a list of them
@@ -108,12 +115,29 @@ def _read(
             f"({beside.source}); they are not merged: remove the block from the URDF, or leave "
             "out the clearance file",
         )
+    if model.njoints <= 1:
+        fixed = len(reader.urdf_joints)
+        raise ModelError(
+            source,
+            "<robot>",
+            f"no joints: the URDF has no movable joint ({len(reader.root.findall('link'))} "
+            f"link(s), {fixed} fixed joint(s)): nothing can move in a play",
+        )
+    if beside is None and own is None:  # after the file's own checks: they come first
+        raise no_clearances(source, "URDF")
     block = beside or ClearanceBlock(own if own is not None else empty_block(), source)
     types = {name: str(element.get("type")) for name, element in reader.urdf_joints.items()}
-    couplings = urdf_couplings(source, reader.urdf_joints.values())
+    couplings = urdf_couplings(source, _mimicking_joints(source, reader.urdf_joints))
     table = JointTable(types, "URDF", couplings=couplings)
     shapes = urdf_shapes(reader.root)
-    contents = read_block(block.source, block.element, model, table, block.kind, shapes)
+    try:
+        contents = read_block(block.source, block.element, model, table, block.kind, shapes)
+    except ModelScaleError as exc:  # the URDF's own lengths: the URDF is named
+        raise ModelError(source, "<robot>", exc.problem) from None
+    # read_file or read_text, load or loads, the caller
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge origin: judged elsewhere
+        geometry = Geometry(model, contents.q_nominal, shapes)
+    warn_model_scale(source, "<robot>", geometry, 4)
     collision = CollisionGeometry(text, source, directories) if reader.has_collision() else None
     return describe(
         model,
@@ -122,6 +146,45 @@ def _read(
         reader.root.get("name", ""),
         collision,
     )
+
+
+def _mimicking_joints(source: str, joints: dict[str, ET.Element]) -> list[ET.Element]:
+    """The URDF joints whose ``<mimic>`` is read: a mimic on a fixed joint (TALOS's grippers
+    as shipped) moves nothing and is left out, with a warning naming the URDF and the joints;
+    one whose follower or leader is no revolute, continuous or prismatic joint is refused,
+    naming the URDF (the clearance file was named)."""
+    fixed = [
+        name
+        for name, element in joints.items()
+        if element.get("type") == "fixed" and element.find("mimic") is not None
+    ]
+    if fixed:
+        # _read, read_file or read_text, load or loads, the caller
+        warnings.warn(
+            SuspectValueWarning(
+                f"{source}: <mimic> of fixed joint(s) {', '.join(map(repr, fixed))} ignored: a "
+                "fixed joint has no motion to couple"
+            ),
+            stacklevel=5,
+        )
+    kept = [element for name, element in joints.items() if name not in fixed]
+    for element in kept:
+        mimic = element.find("mimic")
+        leader = mimic.get("joint") if mimic is not None else None
+        if not leader:
+            continue  # no mimic, or one naming no joint: urdf_couplings says so
+        label = f"<joint name='{element.get('name')}'> <mimic joint='{leader}'>"
+        for role, joint in (("the follower", element), ("its leader", joints.get(leader))):
+            if joint is None:
+                raise ModelError(source, label, f"{leader!r} is no joint of the URDF")
+            if joint.get("type") not in COUPLED_TYPES:
+                raise ModelError(
+                    source,
+                    label,
+                    f"{role} is a {joint.get('type')} joint: a mimic couples revolute, "
+                    "continuous or prismatic joints",
+                )
+    return kept
 
 
 def _package_dirs(package_dirs: PackageDirs) -> tuple[str, ...]:
@@ -228,6 +291,36 @@ class _Reader:
             if child_link:
                 parents[child_link] = name
         self._check_urdf_structure()
+        self._check_depth(parents)
+
+    def _check_depth(self, parents: dict[str, str]) -> None:
+        """Refuse a tree deeper than :data:`MAX_TREE_DEPTH` joints before Pinocchio reads it:
+        its URDF reader recurses once per level and crashes the process (SIGSEGV) on a deep
+        chain."""
+        parent_link = {}
+        for child, joint in parents.items():
+            parent = self.urdf_joints[joint].find("parent")
+            parent_link[child] = parent.get("link", "") if parent is not None else ""
+        depth: dict[str, int] = {}
+        for start in parent_link:
+            path: list[str] = []
+            link = start
+            while link in parent_link and link not in depth and len(path) <= len(parent_link):
+                path.append(link)
+                link = parent_link[link]
+            base = depth.get(link, 0)
+            for offset, visited in enumerate(reversed(path), start=1):
+                depth[visited] = base + offset
+        deepest = max(depth.values(), default=0)
+        if deepest > MAX_TREE_DEPTH:
+            link = max(depth, key=depth.__getitem__)
+            raise ModelError(
+                self.source,
+                f"<joint name='{parents[link]}'>",
+                f"the tree is {deepest} joints deep (to link {link!r}); at most "
+                f"{MAX_TREE_DEPTH} are read: Pinocchio's URDF reader crashes the process beyond "
+                "about 3700 (8 MB stack)",
+            )
 
     def _check_urdf_structure(self) -> None:
         """The URDF checks Pinocchio makes without naming the element (it prints to stderr)."""
