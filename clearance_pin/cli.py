@@ -1,15 +1,18 @@
 """The ``clearance-pin`` command.
 
-    clearance-pin solve MODEL [--clearances FILE] [--exact] [--json] [--check] [--output FRAME]
-                        [--plot FILE] [--gravity on|off] [--package-dir DIR]
-    clearance-pin envelope MODEL [--clearances FILE] [--output FRAME] [--plot F] [--json F]
-    clearance-pin accuracy MODEL --output FRAME [--poses N] [--payload KG ...] [--plot F] [--json F]
+    clearance-pin solve MODEL [--exact] [--check] [--output FRAME|LINK@[X Y Z] ...]
+                        [--gravity on|off] [--json [FILE]] [--plot FILE]
+    clearance-pin envelope MODEL [--output FRAME|LINK@[X Y Z] ...] [--json [FILE]] [--plot F]
+    clearance-pin accuracy MODEL --output FRAME|LINK@[X Y Z] [--poses N] [--payload KG ...]
+                           [--gravity on|off] [--json [FILE]] [--plot F]
     clearance-pin tolerance MODEL [--clearances FILE] ...   (``clearance-pin tolerance --help``)
     clearance-pin compile              (the compiled kernel of re-solves, once per machine)
     clearance-pin --version            (also: python -m clearance_pin ...)
 
 MODEL is a URDF or MJCF file; every sub-command takes ``--clearances FILE`` (the clearances
 beside an unmodified vendor file, XML or TOML) and ``--package-dir DIR`` (where meshes are).
+The options that mean the same thing are spelt the same way (:mod:`clearance_pin.commands`):
+``--json [FILE]``, ``--gravity on|off``, ``--output FRAME|LINK@[X Y Z]``.
 
 The paper's validation cases are a script of the source tree, not a sub-command:
 ``python validation/younes2013.py [--json FILE] [--check]``.
@@ -49,27 +52,53 @@ from .commands import (
     OK,
     OUT_OF_TOLERANCE,
     SOLVER_FAILED,
+    STDOUT,
+    add_gravity_argument,
+    add_json_argument,
     add_model_arguments,
+    add_output_argument,
+    gravity_option,
+    json_on_stdout,
     model_options,
+    say,
+    write_json,
 )
 from .errors import ClearancePinError, SolverError, UnboundedLoadError
 from .json_documents import error_document, solve_document
+
+DESCRIPTION = """\
+clearance-pin: where the parts of a mechanism or robot settle inside their joint play, drive
+backlash and stiffness under load, and how far tolerances and play move its output. Every
+sub-command reads a URDF or MJCF model with its clearances (a <clearance_pin> block, or
+--clearances FILE beside an unmodified vendor file, XML or TOML: docs/model-format.md).
+
+Shared options: --json [FILE] (the result as JSON into FILE, or on standard output without
+FILE), --gravity on|off (the model's own weight; default: the model file's setting),
+--output FRAME|LINK@[X Y Z] (a Pinocchio frame, or a point of a link [m] in its frame)."""
+
+EPILOG = """\
+exit status:
+  0  done: a verified equilibrium (and, with --check, a check within its tolerances)
+  1  out of tolerance: residuals or the coal check; tolerance: a --spec the worst case exceeds
+  2  bad model, load or option (one line naming the file, element and problem)
+  3  no equilibrium: the load drives a motion nothing blocks; envelope: an unbounded output
+  4  the solver did not reach a verified answer (its status and residuals)
+  5  compile: numba cannot compile or cache the kernel (NUMBA_CACHE_DIR)
+Every non-zero status prints one line on standard error. Details: docs/cli.md."""
 
 
 def _solve(args: argparse.Namespace) -> int:
     from .loading import load
 
     mechanism = load(args.model, **model_options(args))
-    gravity = {"on": True, "off": False, None: None}[args.gravity]
     outputs = args.output or None
-    equilibrium = mechanism.solve(exact=args.exact, gravity=gravity, outputs=outputs)
+    equilibrium = mechanism.solve(exact=args.exact, gravity=gravity_option(args), outputs=outputs)
     # the check judges the real boundaries, on the exact pose; a linear answer's own departure
     # from them (its second-order error) is information (report.departure), not a failure
     report = equilibrium.check() if args.check else None
-    if args.json:
-        document = solve_document(str(args.model), equilibrium, report)
-        print(json.dumps(document, indent=2))
-    else:
+    if args.json is not None:
+        write_json(args, solve_document(str(args.model), equilibrium, report))
+    if not json_on_stdout(args):
         print(f"{mechanism!r} from {args.model}")
         if equilibrium.linear is not None:
             print(equilibrium.linear.table())
@@ -82,8 +111,7 @@ def _solve(args: argparse.Namespace) -> int:
         from .plot import plot_equilibrium
 
         plot_equilibrium(equilibrium, args.plot)
-        if not args.json:
-            print(f"settled pose drawn in {args.plot}")
+        say(args, f"settled pose drawn in {args.plot}")
     problems = [] if equilibrium.ok else ["residuals out of tolerance"]
     if report is not None and not report.ok:
         problems.append(f"coal check out of tolerance ({len(report.failures)} readings)")
@@ -97,15 +125,23 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the command."""
     from . import __version__
 
-    parser = argparse.ArgumentParser(prog="clearance-pin", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="clearance-pin",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--version", action="version", version=f"clearance-pin {__version__}")
-    commands = parser.add_subparsers(dest="command", required=True)
-    solve = commands.add_parser("solve", help="equilibrium of a model in its joint clearances")
+    commands = parser.add_subparsers(dest="command", required=True, title="sub-commands",
+                                     metavar="COMMAND")  # fmt: skip
+    solve = commands.add_parser(
+        "solve", help="where the parts settle in their joint play under the model's loads"
+    )
     add_model_arguments(solve)
     solve.add_argument("--exact", action="store_true", help="also solve the exact model")
-    solve.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    add_json_argument(solve, "the equilibrium")
     solve.add_argument("--check", action="store_true", help="measure the pose with coal")
-    solve.add_argument("--gravity", choices=["on", "off"], help="override the model's gravity")
+    add_gravity_argument(solve)
     solve.add_argument(
         "--plot",
         type=Path,
@@ -113,12 +149,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="draw the settled pose (nominal and settled skeleton, magnified; contacts and their "
         "forces; the plays to scale) into FILE (PNG, PDF, SVG; needs the plot extra)",
     )
-    solve.add_argument(
-        "--output",
-        action="append",
-        metavar="FRAME",
-        help="a Pinocchio frame whose world displacement is reported (repeatable; default: the "
-        "loaded points and the leaf links)",
+    add_output_argument(
+        solve,
+        "an output whose world displacement is reported (repeatable; default: the loaded "
+        "points and the leaf links)",
     )
     solve.set_defaults(run=_solve)
     tolerance_command: ModuleType | None
@@ -133,7 +167,9 @@ def build_parser() -> argparse.ArgumentParser:
     except ImportError:
         tolerance_command = None
     if tolerance_command is not None:
-        tolerance = commands.add_parser("tolerance", help="tolerance propagation (Flores)")
+        tolerance = commands.add_parser(
+            "tolerance", help="how far dimensional tolerances move the outputs (Flores)"
+        )
         tolerance_command.add_arguments(tolerance)
         tolerance.set_defaults(run=tolerance_command.run)
     compile_command.register(commands)
@@ -188,10 +224,10 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _failed(args: argparse.Namespace, error: Exception, message: str, status: int) -> int:
-    """Say the failure (one line on standard error; with ``solve --json``, also the ``error``
-    document on standard output) and return its exit status."""
+    """Say the failure (one line on standard error; with ``--json`` on standard output, also
+    the ``error`` document there) and return its exit status."""
     _say(args, message)
-    if getattr(args, "json", None) is True:  # solve's --json prints its document on stdout
+    if json_on_stdout(args):
         model = getattr(args, "model", None)
         document = error_document(
             str(args.command), None if model is None else str(model), type(error).__name__,
@@ -214,7 +250,7 @@ def _check_output_files(args: argparse.Namespace) -> None:
     }
     for option, formats in (("plot", PLOT_FORMATS), ("json", ())):
         value = getattr(args, option, None)
-        if isinstance(value, Path):  # solve's --json is a flag: the JSON goes to stdout
+        if isinstance(value, Path) and value != STDOUT:  # --json alone: standard output
             check_not_an_input(f"--{option}", value, inputs)
             check_output_file(f"--{option}", value, formats)
 

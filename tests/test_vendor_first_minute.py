@@ -332,8 +332,8 @@ def test_an_unknown_frame_lists_each_frame_once():
     assert len(set(names)) < len(names)  # the case: names shared by two frames
     with pytest.raises(cp.ArgumentError) as caught:
         mechanism.solve(outputs=["nope"])
-    listed = str(caught.value).split(": ", 2)[2].rsplit(", found", 1)[0].split(", ")
-    assert sorted(listed) == sorted(set(names))
+    listed = re.search(r"a frame of '[^']+' \(([^)]*)\)", str(caught.value)).group(1)
+    assert sorted(listed.split(", ")) == sorted(set(names))
     with pytest.raises(cp.NotFoundError) as missing:
         mechanism.accuracy("nope", mechanism.q_nominal[None, :])
     assert sorted(missing.value.valid) == sorted(set(names))

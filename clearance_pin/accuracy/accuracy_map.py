@@ -21,6 +21,7 @@ from ..kinematics.joint_shares import joint_levers
 from ..model import plausibility
 from ..model.couplings import coupled_joint, driven
 from ..model.frames import frame_id as find_frame
+from ..model.frames import parse_point
 from ..model.joints import TreeJoint
 from ..model.loads import Gravity, PointForce, Torque
 from .reach import reach, row_directions
@@ -233,12 +234,15 @@ def accuracy_map(
     """
     started = time.perf_counter()
     model = mechanism.model
-    frame = find_frame(model, output)
+    frame_name, at = _output_point(mechanism, output)
+    frame = find_frame(model, frame_name)
     if frame is None:
         raise NotFoundError("frame", output, [f.name for f in model.frames], mechanism.name)
     poses = _configurations(configurations, model.nq)
     point = _payload_point(payload_point)
-    cases, labels = _payload_cases(mechanism, output, payloads, point)
+    if at is not None:  # a point of a link: the payload hangs there, or payload_point from it
+        point = at if point is None else at + point
+    cases, labels = _payload_cases(mechanism, frame_name, payloads, point)
     loaded = [
         bool(mechanism.resolve_loads(loads, False if gravity is False else gravity))
         for loads in cases
@@ -246,11 +250,13 @@ def accuracy_map(
     found = blocks_of(mechanism)
     if found is not None:
         masses = [_mass(payload) for payload in _listed(payloads)]
-        link, where = _hanging_point(mechanism, output, point)
+        link, where = _hanging_point(mechanism, frame_name, point)
         unit = [PointForce(link, [0.0, 0.0, -STANDARD_GRAVITY], where)]  # 1 kg
-        solved = _tree_route(mechanism, found, frame, poses, cases, loaded, gravity, masses, unit)
+        solved = _tree_route(
+            mechanism, found, (frame, at), poses, cases, loaded, gravity, masses, unit
+        )
     else:
-        levers = joint_levers(model, mechanism.tree_joints, frame, poses)
+        levers = joint_levers(model, mechanism.tree_joints, frame, poses, at)
         solved = _general_route(mechanism, poses, cases, loaded, gravity, levers)
     translation, rotation, shares, turns, ok, (reached, spread), free = solved
     shares = {source: {j: s for j, s in by.items() if np.any(s)} for source, by in shares.items()}
@@ -287,7 +293,7 @@ Solved = tuple[
 def _tree_route(
     mechanism: Mechanism,
     found: Any,
-    frame: int,
+    target: tuple[int, np.ndarray | None],
     poses: np.ndarray,
     cases: list[list[Any]],
     loaded: list[bool],
@@ -303,7 +309,7 @@ def _tree_route(
     # caller of Mechanism.accuracy)
     plausibility.warn_configurations(mechanism, poses, stacklevel=4)
     placed = placements(mechanism, poses)  # the kinematics of each pose, once
-    levers = tree_levers(mechanism, frame, placed)
+    levers = tree_levers(mechanism, target[0], placed, target[1])  # (frame, point on it)
     solved = [k for k in range(payloads) if loaded[k]]
     chosen = [cases[k] for k in solved]
     answers = (
@@ -567,6 +573,20 @@ def _hanging_point(
     placed = model.frames[find_frame(model, output)].placement
     at = model.frames[mechanism.link_frames[link]].placement
     return link, (at.inverse() * placed).act(point)
+
+
+def _output_point(mechanism: Mechanism, output: str) -> tuple[str, np.ndarray | None]:
+    """(the frame the output is on, the point (3,) [m] on it, or None for its origin): a
+    Pinocchio frame's name, or a point of a link, ``link@[x y z]`` [m] in the link's frame."""
+    parsed = parse_point(output) if isinstance(output, str) else None
+    if parsed is None:
+        return output, None
+    link, local = parsed
+    if link not in mechanism.link_frames:
+        raise NotFoundError("link", link, tuple(mechanism.link_frames), mechanism.name)
+    if local.shape != (3,) or not np.all(np.isfinite(local)):
+        raise ArgumentError("output", "link@[x y z]: 3 finite numbers [m], link frame", output)
+    return link, local
 
 
 def _describe(load: Any) -> str:

@@ -22,14 +22,22 @@ solver failure).
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..arguments import MOST_POSES, check_count, check_seed
-from ..commands import add_model_arguments, model_options
+from ..commands import (
+    add_gravity_argument,
+    add_json_argument,
+    add_model_arguments,
+    add_output_argument,
+    gravity_option,
+    model_options,
+    say,
+    write_json,
+)
 from ..errors import ArgumentError
 from ..json_documents import ACCURACY_SCHEMA
 
@@ -51,7 +59,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the ``accuracy`` sub-command."""
     add_model_arguments(parser, " (driven joints: the robot's drives)")
-    parser.add_argument("--output", required=True, metavar="FRAME", help="the tool frame")
+    add_output_argument(parser, "the tool", required=True)
     parser.add_argument(
         "--poses", type=int, default=200, help=f"random poses (default 200, at most {MOST_POSES})"
     )
@@ -77,7 +85,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="X,Y,Z",
         help="where the payload mass hangs, in the output frame [m] (default: its origin)",
     )
-    parser.add_argument("--gravity", action="store_true", help="the robot's own weight on")
+    add_gravity_argument(parser)
     parser.add_argument("--plot", type=Path, metavar="FILE", help="draw the map (PNG, ...)")
     parser.add_argument(
         "--plot-workspace",
@@ -88,7 +96,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--csv", type=Path, metavar="FILE", help="one row per pose and payload (SI)"
     )
-    parser.add_argument("--json", type=Path, metavar="FILE", help="write the summary (SI)")
+    add_json_argument(parser, "the map's summary")
     parser.add_argument(
         "--poses-json", action="store_true", help="with --json: every pose's numbers too"
     )
@@ -110,32 +118,46 @@ def run(args: argparse.Namespace) -> int:
         args.output,
         poses,
         payloads=args.payload or [0.0],
-        gravity=True if args.gravity else None,
+        gravity=gravity_option(args),
         payload_point=payload_point(args.payload_point),
     )
-    print(table(amap))
+    say(args, loads_line(mechanism, args))
+    say(args, table(amap))
     if args.plot:
         from .plot import plot_accuracy
 
         plot_accuracy(amap, mechanism, args.plot)
-        print(f"plot written to {args.plot}")
+        say(args, f"plot written to {args.plot}")
     if args.plot_workspace:
         from .plot import plot_workspace
 
         plot_workspace(amap, mechanism, args.plot_workspace)
-        print(f"workspace plot written to {args.plot_workspace}")
+        say(args, f"workspace plot written to {args.plot_workspace}")
     if args.csv:
         amap.to_csv(args.csv, _q_names(mechanism))
-        print(f"CSV written to {args.csv}")
-    if args.json:
+        say(args, f"CSV written to {args.csv}")
+    if args.json is not None:
         document = {
             "schema": ACCURACY_SCHEMA,
             "model": str(args.model),
             **amap.to_dict(poses=args.poses_json),
         }
-        args.json.write_text(json.dumps(document, indent=1))
-        print(f"JSON written to {args.json}")
+        write_json(args, document)
     return 0
+
+
+def loads_line(mechanism: Any, args: argparse.Namespace) -> str:
+    """What loads the map: the payloads at the output, not the file's loads, and the robot's
+    own weight on or off and why (an unloaded robot at 0 kg does not move: say so)."""
+    chosen = gravity_option(args)
+    weight = chosen if chosen is not None else mechanism.gravity is not None
+    why = "--gravity" if chosen is not None else "the model file's setting; --gravity on|off"
+    payloads = ", ".join(f"{m:g}" for m in (args.payload or [0.0]))
+    return (
+        f"loads: payloads {payloads} kg at the output (the model file's own loads are not "
+        f"applied); the robot's own weight {'on' if weight else 'off'} ({why})"
+        + ("" if weight or any(args.payload or []) else ": nothing loads it, it stays at 0 um")
+    )
 
 
 def payload_point(text: str | None) -> list[float] | None:

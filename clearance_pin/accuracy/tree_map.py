@@ -108,16 +108,21 @@ def placements(mechanism: Mechanism, poses: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def levers(
-    mechanism: Mechanism, frame: int, placed: tuple[np.ndarray, np.ndarray]
+    mechanism: Mechanism,
+    frame: int,
+    placed: tuple[np.ndarray, np.ndarray],
+    point: np.ndarray | None = None,
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """:func:`~clearance_pin.kinematics.joint_shares.joint_levers` from the placements
     ``placed`` (:func:`placements`): per tree joint between the ground and ``frame``, its
-    clearance axes :math:`R_j C_j` (Q, 3, 3) and the arm :math:`p - c_j` (Q, 3) [m]."""
+    clearance axes :math:`R_j C_j` (Q, 3, 3) and the arm :math:`p - c_j` (Q, 3) [m], p the
+    frame's origin or ``point`` (3,) [m] in the frame."""
     rotations, translations = placed
     model = mechanism.model
     at = model.frames[frame]
     body = at.parentJoint
-    point = rotations[:, body] @ at.placement.translation + translations[:, body]
+    local = at.placement.translation if point is None else at.placement.act(point)
+    point = rotations[:, body] @ local + translations[:, body]
     chain = set()
     while body:
         chain.add(body)

@@ -18,12 +18,19 @@ input, 3 a load along a free motion, 4 a solver failure).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
-from ..commands import NO_EQUILIBRIUM, add_model_arguments, model_options
+from ..commands import (
+    NO_EQUILIBRIUM,
+    add_json_argument,
+    add_model_arguments,
+    add_output_argument,
+    model_options,
+    say,
+    write_json,
+)
 from ..json_documents import envelope_document
 from . import envelope
 from .result import Envelope
@@ -44,12 +51,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the ``envelope`` sub-command."""
     add_model_arguments(parser)
-    parser.add_argument(
-        "--output",
-        action="append",
-        metavar="FRAME|LINK@[X Y Z]",
-        help="a Pinocchio frame, or a point of a link [m] (repeatable; default: the leaf links)",
-    )
+    add_output_argument(parser, "an output (repeatable; default: the leaf links)")
     parser.add_argument(
         "--kind",
         choices=["translation", "rotation", "both"],
@@ -61,7 +63,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--tol", type=float, default=1e-6, help="relative gap of the maxima (default 1e-6)"
     )
     parser.add_argument("--plot", type=Path, metavar="FILE", help="draw the envelopes (PNG, ...)")
-    parser.add_argument("--json", type=Path, metavar="FILE", help="write the result as JSON (SI)")
+    add_json_argument(parser, "the envelopes")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -76,9 +78,9 @@ def run(args: argparse.Namespace) -> int:
     for index, output in enumerate(outputs):
         result = envelope(mechanism, output, exact=args.exact, kinds=kinds, tol=args.tol)
         results.append(result)
-        print(result.table())
+        say(args, result.table())
         timings = ", ".join(f"{k} {v:.3f} s" for k, v in result.timings.items())
-        print(f"  time: {timings}")
+        say(args, f"  time: {timings}")
         if args.plot:
             from .plot import plot_envelope
 
@@ -86,11 +88,9 @@ def run(args: argparse.Namespace) -> int:
             if len(outputs) > 1:
                 target = args.plot.with_name(f"{args.plot.stem}_{index}{args.plot.suffix}")
             plot_envelope(result, target)
-            print(f"plot written to {target}")
-    if args.json:
-        document = envelope_document(str(args.model), results)
-        args.json.write_text(json.dumps(document, indent=1))
-        print(f"JSON written to {args.json}")
+            say(args, f"plot written to {target}")
+    if args.json is not None:
+        write_json(args, envelope_document(str(args.model), results))
     unbounded = [
         f"{r.output.name} {kind} ({part.free.shape[1]} free direction(s))"
         for r in results

@@ -14,7 +14,6 @@ of that body at the output point. Its deviation, world axes, is
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -24,11 +23,11 @@ import pinocchio as pin
 
 from ..arguments import check_point
 from ..errors import ArgumentError, NotFoundError
+from ..model.frames import parse_point, point_name
 
 Vector = npt.NDArray[np.float64]
 Kind = Literal["translation", "rotation"]
 KINDS: tuple[Kind, ...] = ("translation", "rotation")
-_POINT = re.compile(r"^\s*([^@\s]+)\s*@\s*\[([^\]]*)\]\s*$")
 
 
 @dataclass(frozen=True)
@@ -124,15 +123,10 @@ def resolve_output(mechanism: Any, output: object, configuration: Any) -> Output
 def _parse(mechanism: Any, output: object) -> tuple[str | None, Vector, str]:
     """(link or None for a frame, point in the link frame, display name)."""
     if isinstance(output, str):
-        match = _POINT.match(output)
-        if match is None:
+        parsed = parse_point(output)
+        if parsed is None:
             return None, np.zeros(3), output.strip()
-        link, text = match.group(1), match.group(2)
-        try:
-            point = np.array([float(v) for v in text.replace(",", " ").split()], dtype=float)
-        except ValueError:
-            point = np.zeros(0)
-        return _checked_point(mechanism, link, point, output)
+        return _checked_point(mechanism, parsed[0], parsed[1], output)
     if isinstance(output, tuple) and len(output) == 2 and isinstance(output[0], str):
         try:
             point = np.array(output[1], dtype=float).reshape(-1)
@@ -152,8 +146,7 @@ def _checked_point(
     if point.shape != (3,) or not np.all(np.isfinite(point)):
         raise ArgumentError("output", "a point of 3 finite numbers [m], link frame", given)
     check_point("output", point, given)
-    x, y, z = (float(v) for v in point)
-    return link, point, f"{link}@[{x:.6g} {y:.6g} {z:.6g}]"
+    return link, point, point_name(link, point)
 
 
 def _link_of_body(mechanism: Any, body: int, name: str) -> int:

@@ -21,8 +21,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ..arguments import check_point
 from ..errors import ArgumentError
-from ..model.frames import frame_id
+from ..model.frames import frame_id, parse_point, point_name
 from ..model.loads import PointForce, Torque
 
 
@@ -57,15 +58,15 @@ def leaf_links(model: pin.Model) -> tuple[str, ...]:
 
 def load_point_name(load: PointForce) -> str:
     """``link@[x y z]``: the name of a point force's application point (link frame, [m])."""
-    x, y, z = (float(c) for c in load.point)
-    return f"{load.link}@[{x:.6g} {y:.6g} {z:.6g}]"
+    return point_name(load.link, load.point)
 
 
 def resolve_outputs(
     mechanism: Any, loads: Any = (), outputs: Any = None
 ) -> tuple[OutputPoint, ...]:
-    """The output points of a solve: the loaded points, then ``outputs`` (Pinocchio frame names;
-    default: the leaf links). Raises ArgumentError naming an unknown frame and the valid ones.
+    """The output points of a solve: the loaded points, then ``outputs`` (Pinocchio frame names
+    or points of links, ``link@[x y z]`` [m]; default: the leaf links). Raises ArgumentError
+    naming an unknown frame and the valid ones.
 
     Kept per mechanism for the same loaded points and outputs (a planner re-solving with new load
     values asks for the same points every time)."""
@@ -115,9 +116,16 @@ def _resolve(mechanism: Any, loads: Any, outputs: Any) -> tuple[OutputPoint, ...
         names = tuple(outputs)
     valid = list(dict.fromkeys(f.name for f in model.frames))  # a link and a joint share names
     for index, name in enumerate(names):
+        point = _link_point(mechanism, f"outputs[{index}]", name)
+        if point is not None:  # link@[x y z]: a point of a link
+            points.setdefault(point.name, point)
+            continue
         if not model.existFrame(name):
             raise ArgumentError(
-                f"outputs[{index}]", f"a frame of {mechanism.name!r}: {', '.join(valid)}", name
+                f"outputs[{index}]",
+                f"a frame of {mechanism.name!r} ({', '.join(valid)}) or a point of a link, "
+                "link@[x y z] [m]",
+                name,
             )
         frame = model.frames[frame_id(model, name)]
         same = [  # a frame at a loaded point is reported once: under the frame's name if asked
@@ -132,6 +140,28 @@ def _resolve(mechanism: Any, loads: Any, outputs: Any) -> tuple[OutputPoint, ...
         elif not same or outputs is not None:
             points.setdefault(name, output)
     return tuple(points.values())
+
+
+def _link_point(mechanism: Any, argument: str, text: str) -> OutputPoint | None:
+    """The output point ``link@[x y z]`` names ([m], the link's frame); None for a frame name.
+    Raises ArgumentError for an unknown link, numbers that are not 3 finite ones, or a link of
+    the ground (it does not move)."""
+    parsed = parse_point(text)
+    if parsed is None:
+        return None
+    link, local = parsed
+    if link not in mechanism.link_frames:
+        raise ArgumentError(
+            argument, f"a link of {mechanism.name!r}: {', '.join(mechanism.link_frames)}", text
+        )
+    if local.shape != (3,) or not np.all(np.isfinite(local)):
+        raise ArgumentError(argument, "link@[x y z]: 3 finite numbers [m], link frame", text)
+    check_point(argument, local, text)
+    frame = mechanism.model.frames[mechanism.link_frames[link]]
+    if frame.parentJoint == 0:
+        raise ArgumentError(argument, "a point of a moving part", text, "it is on the ground")
+    placement = frame.placement * pin.SE3(np.eye(3), local)
+    return OutputPoint(point_name(link, local), frame.parentJoint, placement)
 
 
 def output_displacements(

@@ -23,12 +23,16 @@ if TYPE_CHECKING:
 
 
 def joint_levers(
-    model: pin.Model, tree_joints: tuple[TreeJoint, ...], frame: int, poses: np.ndarray
+    model: pin.Model,
+    tree_joints: tuple[TreeJoint, ...],
+    frame: int,
+    poses: np.ndarray,
+    point: np.ndarray | None = None,
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Per tree joint between the ground and frame ``frame``: its clearance frame's axes R_j
-    (Q, 3, 3) and the arm p - c_j from its centre to the frame's origin (Q, 3) [m], world axes,
-    at each pose of ``poses`` (Q, nq); joints off that path move the frame by nothing and are
-    left out."""
+    (Q, 3, 3) and the arm p - c_j from its centre to the frame's origin, or to ``point`` (3,)
+    [m] in the frame, (Q, 3) [m], world axes, at each pose of ``poses`` (Q, nq); joints off that
+    path move the frame by nothing and are left out."""
     data = model.createData()
     body = model.frames[frame].parentJoint
     chain = set()
@@ -40,11 +44,11 @@ def joint_levers(
     arms = {joint.name: np.zeros((len(poses), 3)) for joint in joints}
     for i, q in enumerate(poses):
         pin.forwardKinematics(model, data, q)
-        point = pin.updateFramePlacement(model, data, frame).translation
+        placed = pin.updateFramePlacement(model, data, frame)
+        at = placed.translation if point is None else placed.act(point)
         for joint in joints:
-            placed = data.oMi[joint.joint_id]
-            axes[joint.name][i] = placed.rotation @ joint.rotation
-            arms[joint.name][i] = point - placed.translation
+            axes[joint.name][i] = data.oMi[joint.joint_id].rotation @ joint.rotation
+            arms[joint.name][i] = at - data.oMi[joint.joint_id].translation
     return {joint.name: (axes[joint.name], arms[joint.name]) for joint in joints}
 
 

@@ -18,7 +18,6 @@ required: a slider has no cycle). Units: um and urad in the table, SI (m, rad) i
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
@@ -28,7 +27,15 @@ import numpy as np
 import pinocchio as pin
 
 from ..arguments import MOST_POSITIONS, MOST_SAMPLES, check_count, check_seed
-from ..commands import OK, OUT_OF_TOLERANCE, add_model_arguments, model_options
+from ..commands import (
+    OK,
+    OUT_OF_TOLERANCE,
+    add_json_argument,
+    add_model_arguments,
+    model_options,
+    say,
+    write_json,
+)
 from ..errors import ArgumentError, ClearancePinError, NotFoundError
 from ..json_documents import TOLERANCE_SCHEMA
 from .sensitivity import Output, determined_outputs, parse_output, sensitivities
@@ -123,7 +130,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "against it (exit 1 when a worst case exceeds it)",
     )
     parser.add_argument("--plot", type=Path, metavar="FILE", help="write a PNG of the bands")
-    parser.add_argument("--json", type=Path, metavar="FILE", help="write the results as JSON")
+    add_json_argument(parser, "the results")
 
 
 def default_outputs(mechanism: Mechanism) -> tuple[Output, ...]:
@@ -215,19 +222,25 @@ def run(args: argparse.Namespace) -> int:
         for i, output in enumerate(result.outputs)
         if output.name in specs
     ]
-    print(_table(mechanism, result, maxima, budget))
+    say(args, _table(mechanism, result, maxima, budget))
     for line in _spec_lines(verdicts):
-        print(line)
+        say(args, line)
     if args.plot:
         plot_sweep(
             result, args.plot, budget, title=f"{mechanism.name}: tolerance bands", limits=specs
         )
-        print(f"plot written to {args.plot}")
-    if args.json:
-        document = _document(args.model, result, maxima, budget, verdicts)
-        args.json.write_text(json.dumps(document, indent=1))
-        print(f"JSON written to {args.json}")
-    return OUT_OF_TOLERANCE if any(not v.worst_case_passes for v in verdicts) else OK
+        say(args, f"plot written to {args.plot}")
+    if args.json is not None:
+        write_json(args, _document(args.model, result, maxima, budget, verdicts))
+    failed = [v for v in verdicts if not v.worst_case_passes]
+    if failed:  # a non-zero exit says why on standard error, in one line
+        names = ", ".join(v.output for v in failed)
+        print(
+            f"clearance-pin: {args.model}: out of spec (worst case beyond the limit): {names}",
+            file=sys.stderr,
+        )
+        return OUT_OF_TOLERANCE
+    return OK
 
 
 def _largest(maxima: Maxima, name: str) -> tuple[float, float] | None:
