@@ -136,6 +136,9 @@ def build_parser() -> argparse.ArgumentParser:
         tolerance = commands.add_parser("tolerance", help="tolerance propagation (Flores)")
         tolerance_command.add_arguments(tolerance)
         tolerance.set_defaults(run=tolerance_command.run)
+    from .identification import command as identification_command
+
+    identification_command.register(commands)
     compile_command.register(commands)
     return parser
 
