@@ -5,7 +5,7 @@ deflections, where to measure them, and the accuracy the identified robot predic
         --measurements deflections.csv --write identified.toml --json identify.json
     clearance-pin identify ur5.urdf --clearances datasheet.toml --point tool0:0.2,0,0.1 \\
         --design 40 --noise 10um --payload 5 --plan to_measure.csv
-    clearance-pin identify ... --measurements deflections.csv --payload 5   # + ISO 9283 errors
+    clearance-pin identify ... --measurements deflections.csv --payload 5 --iso9283
 
 ``--measurements CSV``: the measurement file (docs/identification.md): each drive's backlash
 and stiffness fitted, with standard errors, rank, conditioning, correlated pairs and the
@@ -14,8 +14,9 @@ of the poses out of the fit to judge its prediction; ``--write FILE`` writes the
 with the identified values (TOML). ``--design N``: the N poses among ``--candidates`` random
 ones that determine the parameters best, under the rated ``--payload`` (hung, and pulled along
 +-x and +-y), the standard errors expected for ``--noise``, ``--plan FILE`` a measurement file to
-fill in. ``--payload KG`` with measurements (or alone): the position error predicted at the ISO
-9283 test cube's poses, split by play, backlash and compliance. ``--gravity on``: the arm's own
+fill in. ``--iso9283`` (with ``--payload KG``): the position error predicted at the ISO 9283
+test cube's poses, split by play, backlash and compliance, with the identified values (or the
+clearance file's without measurements). ``--gravity on``: the arm's own
 weight among the loads (a real robot always carries it; default: as the model says).
 
 Exit status: 0; 1 when a parameter asked for could not be identified (unobservable, not
@@ -86,6 +87,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--payload", type=float, metavar="KG", help="the rated payload [kg] (design, ISO 9283)"
     )
     parser.add_argument("--plan", type=Path, metavar="FILE", help="with --design: a CSV to fill in")
+    parser.add_argument(
+        "--iso9283",
+        action="store_true",
+        help="the position error predicted at the ISO 9283 test cube's poses under --payload",
+    )
 
 
 def parse_length(option: str, text: str) -> float:
@@ -155,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
         if args.plan is not None:
             design.write_plan(args.plan)
             print(f"measurement plan written to {args.plan}")
-    if args.payload is not None:
+    if args.iso9283:
         prediction = iso9283_prediction(robot, args.point, args.payload, gravity=gravity)
         which = "identified" if args.measurements is not None else "clearance file's"
         print(f"with the {which} values:")

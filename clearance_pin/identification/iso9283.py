@@ -113,7 +113,9 @@ def _point(
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
     placed = data.oMf[point.frame_id]
-    jacobian = pin.getFrameJacobian(model, data, point.frame_id, pin.LOCAL_WORLD_ALIGNED)
+    jacobian = np.array(
+        pin.getFrameJacobian(model, data, point.frame_id, pin.LOCAL_WORLD_ALIGNED)
+    ).reshape(6, model.nv)  # (a one-coordinate model's comes back flat)
     r = placed.rotation @ point.offset
     jacobian[:3] -= pin.skew(r) @ jacobian[3:]
     return placed.translation + r, placed.rotation.copy(), jacobian
