@@ -114,15 +114,19 @@ class Parameter:
         kind: ``"backlash"`` (b [rad, or m for a prismatic drive]) or ``"drive_stiffness"``
             (k [N m/rad, or N/m]; fitted as its compliance c = 1/k).
         prior: the clearance file's value (b; k, ``inf`` for a rigid drive).
+        prismatic: the drive slides (b [m], k [N/m]).
     """
 
     joint: str
     kind: str
     prior: float
+    prismatic: bool = False
 
     @property
     def unit(self) -> str:
-        return "rad" if self.kind == "backlash" else "N m/rad"
+        if self.kind == "backlash":
+            return "m" if self.prismatic else "rad"
+        return "N/m" if self.prismatic else "N m/rad"
 
     @property
     def prior_column(self) -> float:
@@ -286,9 +290,10 @@ def difference_model(
     parameters = []
     for joint in chain:
         b, k = drive_values(joint)
+        slides = joint.motion_component == 0
         parameters += [
-            Parameter(joint.name, "backlash", b),
-            Parameter(joint.name, "drive_stiffness", k),
+            Parameter(joint.name, "backlash", b, slides),
+            Parameter(joint.name, "drive_stiffness", k, slides),
         ]
     # the reference: rigid drives with a backlash B_REF (a tree's play, backlash and springs
     # superpose, so its value is immaterial; with it every drive's side is the solver's own)

@@ -59,10 +59,13 @@ class IdentifiedParameter:
     reason: str = ""
     compliance: float | None = None
     compliance_error: float | None = None
+    prismatic: bool = False
 
     @property
     def unit(self) -> str:
-        return "rad" if self.kind == "backlash" else "N m/rad"
+        if self.kind == "backlash":
+            return "m" if self.prismatic else "rad"
+        return "N/m" if self.prismatic else "N m/rad"
 
     @property
     def label(self) -> str:
@@ -197,12 +200,12 @@ class Identification:
         lines = [
             f"identified at {self.point.label} from {self.poses} poses, {self.rows} "
             f"measurements (arm's weight {'on' if self.gravity else 'off'}): {self.status}",
-            f"{'joint':<22} {'parameter':<16} {'value':>12} {'std. error':>11} {'file':>12}  status",
+            f"{'joint':<22} {'parameter':<26} {'value':>12} {'std. error':>11} {'file':>12}  status",
         ]
         for p in self.parameters:
             value, error, prior = p.value, p.standard_error, p.prior
             lines.append(
-                f"{p.joint:<22} {p.kind + ' [' + ('rad' if p.kind == 'backlash' else 'N m/rad') + ']':<16} "
+                f"{p.joint:<22} {p.kind + ' [' + p.unit + ']':<26} "
                 f"{value:12.5g} {error:11.3g} {prior:12.5g}  {p.status}"
                 + (f": {p.reason}" if p.reason else "")
             )
@@ -394,18 +397,20 @@ def _parameters(
                 status = "not physical"
             value = estimate if fitted else parameter.prior
             out.append(IdentifiedParameter(parameter.joint, "backlash", value, error,
-                                           parameter.prior, status, reason))  # fmt: skip
+                                           parameter.prior, status, reason,
+                                           prismatic=parameter.prismatic))  # fmt: skip
             continue
         if fitted:
             stiffness = 1.0 / estimate if estimate != 0.0 else np.inf
             status = "identified" if estimate > 0.0 else "not physical"
             out.append(IdentifiedParameter(
                 parameter.joint, "drive_stiffness", stiffness, error / estimate**2,
-                parameter.prior, status, reason, estimate, error,
+                parameter.prior, status, reason, estimate, error, parameter.prismatic,
             ))  # fmt: skip
         else:
             out.append(IdentifiedParameter(parameter.joint, "drive_stiffness", parameter.prior,
-                                           np.nan, parameter.prior, status, reason))  # fmt: skip
+                                           np.nan, parameter.prior, status, reason,
+                                           prismatic=parameter.prismatic))  # fmt: skip
     return tuple(out)
 
 
