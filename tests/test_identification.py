@@ -142,6 +142,11 @@ def test_noise_free_measurements_give_every_parameter_back(tmp_path, robot):
     assert result.rms["fitted"]["after_m"] < 1e-12
     assert result.rms["fitted"]["before_m"] > 1e-5  # the datasheet's values miss by far
     assert result.solver_check < 1e-15  # the linear model is the solver's
+    # a quarter of the poses held out: fitted on 15, predicted on 5
+    split = mechanism.identify(data, point=ROBOTS[robot][2], held_out=0.25, seed=2)
+    assert (split.poses, split.held_out_poses) == (15, 5)
+    assert split.rms["held_out"]["after_m"] < 1e-12
+    assert split.rms["held_out"]["before_m"] > 1e-5
 
 
 def test_noisy_measurements_at_the_designed_poses(tmp_path):
@@ -154,7 +159,7 @@ def test_noisy_measurements_at_the_designed_poses(tmp_path):
     mechanism, names, b, k = robot_and_truth(tmp_path, robot)
     point, payload = ROBOTS[robot][2], ROBOTS[robot][3]
     design = mechanism.design_measurements(point, 120, 10e-6, payload=payload, seed=0)
-    assert design.configurations.shape == (120, 6) and not design.left_out
+    assert design.configurations.shape == (120, 6) and design.status == "ok"
     expected_b, expected_c = design.standard_errors[0::2], design.standard_errors[1::2]
     assert np.all(expected_b < 0.05 / 3 * b) and np.all(expected_c * k < 0.01 / 3)
     data = synthetic_measurements(
@@ -307,6 +312,29 @@ def test_bad_measurement_files_name_the_line_and_column(tmp_path):
     assert (bad.row, bad.column) == (2, "mass")
     bad = error(f"{header}\nA,0.1,1,0,0\n")
     assert bad.row == 2 and "5 values for the 6 columns" in str(bad)
+
+
+def test_a_design_too_small_and_one_of_backlash_alone(tmp_path):
+    """One pose cannot determine 12 parameters (its 5 loads x 3 coordinates less the pose's mean
+    are 12 equations, but the sides the loads take up are not independent enough): every
+    parameter has a share in what it leaves undetermined, so none gets a standard error and the
+    design says it failed; asking for backlash alone lists backlash only."""
+    mechanism, names, _, _ = robot_and_truth(tmp_path, "ur5")
+    small = mechanism.design_measurements(ROBOTS["ur5"][2], 1, 10e-6, payload=5.0, candidates=50)
+    assert small.status == "failed" and np.isnan(small.standard_errors).all()
+    only = mechanism.design_measurements(
+        ROBOTS["ur5"][2], 10, 10e-6, payload=5.0, candidates=50, parameters="backlash"
+    )
+    assert only.labels == tuple(f"{n} backlash" for n in names) and only.status == "ok"
+
+
+def test_a_measurement_error_pickles_with_its_data():
+    import pickle
+
+    error = cp.MeasurementError("m.csv", 5, "y", "'abc' is not a finite number")
+    copy = pickle.loads(pickle.dumps(error))
+    assert type(copy) is cp.MeasurementError and vars(copy) == vars(error)
+    assert str(copy) == "m.csv: line 5, column 'y': 'abc' is not a finite number"
 
 
 def test_rotations_measured_too(tmp_path):

@@ -44,7 +44,8 @@ drive_stiffness = 500.0
 # force Fz there exerts tau = -0.5 Fz about y, which turns the arm by sign(tau) b/2 + tau/k,
 # and the point moves along z by dz = -0.5 theta = 0.5 sign(Fz) b/2 + 0.25 Fz / k.
 # With b = 0.002 rad and k = 1000 N m/rad: Fz = -10 N: dz = -0.0005 - 0.0025 = -0.003 m;
-# +10: +0.003; -20: -0.0005 - 0.005 = -0.0055; +20: +0.0055; -5: -0.0005 - 0.00125 = -0.00175.
+# +10: +0.003; -20: -0.0005 - 0.005 = -0.0055; +20: +0.0055; -5: -0.0005 - 0.00125 = -0.00175;
+# no force: no torque, the drive in the middle of its backlash (no side), dz = 0.
 # The laser tracker's origin is elsewhere (x = 1.2, z = 1.0 and 2.0 at the two poses).
 MEASUREMENTS = """# the hinge's point 0.5 m out, pulled up and down
 pose,hinge,fx,fy,fz,x,y,z
@@ -53,6 +54,7 @@ A,0,0,0,10,1.2,0,1.003
 A,0,0,0,-20,1.2,0,0.9945
 B,0,0,0,20,1.2,0,2.0055
 B,0,0,0,-5,1.2,0,1.99825
+B,0,0,0,0,1.2,0,2.0
 """
 
 

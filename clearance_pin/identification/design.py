@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import ArgumentError
 from .differences import KINDS, DifferenceModel, difference_model, measured_point
-from .fit import centred, observability
+from .fit import RANK_RTOL, centred, observability
 from .measurements import STANDARD_GRAVITY
 
 if TYPE_CHECKING:
@@ -84,7 +84,8 @@ class Design:
         noise: the measurement noise assumed [m] (each coordinate, independent).
         log_det: log det of the information matrix (columns scaled to unit norm over the
             candidates).
-        point: the point's label; joint_names: the driven joints (columns of a plan).
+        point: the point's label; joint_columns: every joint's column of a plan and its
+            coordinate.
         time: wall time [s].
     """
 
@@ -102,11 +103,23 @@ class Design:
     joint_columns: dict[str, int]
     time: float
 
+    @property
+    def status(self) -> str:
+        """``"ok"``: every parameter asked for can be determined by the chosen poses;
+        ``"partial"``: some cannot (:attr:`left_out`, or a NaN standard error); ``"failed"``:
+        none."""
+        asked = [i for i, label in enumerate(self.labels) if label not in self.left_out]
+        determined = [i for i in asked if np.isfinite(self.standard_errors[i])]
+        if not determined:
+            return "failed"
+        return "ok" if not self.left_out and len(determined) == len(asked) else "partial"
+
     def to_dict(self) -> dict[str, Any]:
         def number(value: float) -> float | None:
             return float(value) if np.isfinite(value) else None
 
         return {
+            "status": self.status,
             "poses": len(self.configurations),
             "noise_m": self.noise,
             "forces_N": self.forces.tolist(),
@@ -130,7 +143,7 @@ class Design:
     def table(self) -> str:
         lines = [
             f"design: {len(self.configurations)} poses x {len(self.forces)} loads at "
-            f"{self.point}, noise {self.noise * 1e6:g} um per coordinate",
+            f"{self.point}, noise {self.noise * 1e6:g} um per coordinate: {self.status}",
             f"{'parameter':<40} {'expected std. error':>20} {'relative':>10}",
         ]
         for label, error, relative in zip(self.labels, self.standard_errors, self.relative_errors):
@@ -217,14 +230,21 @@ def design_measurements(
     chosen, log_det, information, norms = _d_optimal(model, pose_of_row, free, count, len(poses))
     errors = np.full(len(labels), np.nan)
     if free:
-        scaled = np.linalg.pinv(information)  # of the unit-norm columns
+        values, vectors = np.linalg.eigh(information)  # of the unit-norm columns
+        kept = values > RANK_RTOL * values[-1]
+        scaled = (vectors[:, kept] / values[kept]) @ vectors[:, kept].T
+        undetermined = np.sum(vectors[:, ~kept] ** 2, axis=1) > 1e-6  # too few poses for them
         errors[free] = noise * np.sqrt(np.clip(np.diag(scaled), 0.0, None)) / norms
+        errors[np.array(free)[undetermined]] = np.nan
     priors = np.array([p.prior for p in model.parameters])
     relative = np.full(len(labels), np.nan)
     for i, parameter in enumerate(model.parameters):
         prior = parameter.prior
         if np.isfinite(prior) and prior > 0.0:
             relative[i] = errors[i] / prior if parameter.kind == "backlash" else errors[i] * prior
+    asked = [i for i, parameter in enumerate(model.parameters) if parameter.kind in kinds]
+    labels = tuple(labels[i] for i in asked)
+    priors, errors, relative = priors[asked], errors[asked], relative[asked]
     columns = {
         mechanism.model.names[j.joint_id]: mechanism.model.joints[j.joint_id].idx_q
         for j in mechanism.tree_joints

@@ -43,11 +43,11 @@ SOURCES = ("play", "backlash", "compliance")
 CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, 1], [-1, 1, 1]], dtype=float)
 REACHED = 1e-10  # [m, rad]: the inverse kinematics' tolerance
 
-__all__ = ["Iso9283Prediction", "TestCube", "iso9283_prediction", "test_cube"]
+__all__ = ["Iso9283Prediction", "Cube", "iso9283_prediction", "iso9283_cube"]
 
 
 @dataclass(frozen=True)
-class TestCube:
+class Cube:
     """The ISO 9283 test cube's five poses.
 
     Attributes:
@@ -57,8 +57,6 @@ class TestCube:
         orientation: the point's frame's orientation at every pose (3, 3).
         configurations: the robot's pose at each (5, nq).
     """
-
-    __test__ = False  # not a pytest class
 
     centre: np.ndarray
     edge: float
@@ -73,9 +71,9 @@ def cube_positions(centre: np.ndarray, edge: float) -> np.ndarray:
     return np.vstack([centre, centre + 0.8 * (corners - centre)])
 
 
-def test_cube(
+def iso9283_cube(
     mechanism: Mechanism, point: Any, edge: float | None = None, q: Any = None
-) -> TestCube:
+) -> Cube:
     """The test cube centred on ``point`` at pose ``q`` (default: nominal); ``edge`` [m]
     (default: the largest reachable, module docstring)."""
     where = point if isinstance(point, MeasuredPoint) else measured_point(mechanism, point)
@@ -97,7 +95,7 @@ def test_cube(
         targets = cube_positions(position, size)
         poses = [_reach(mechanism, data, where, start, t, rotation, driven) for t in targets]
         if all(p is not None for p in poses):
-            return TestCube(position, size, targets, rotation, np.array(poses))
+            return Cube(position, size, targets, rotation, np.array(poses))
     raise SolverError(
         f"no ISO 9283 cube of edge {edges[-1]:.3g} m or more is reachable around the point's "
         "nominal position with its nominal orientation (give a smaller edge)",
@@ -165,7 +163,7 @@ class Iso9283Prediction:
         ok: every pose's answer verified (5,).
     """
 
-    cube: TestCube
+    cube: Cube
     payload: float
     errors: dict[str, np.ndarray]
     total: np.ndarray
@@ -209,7 +207,7 @@ def iso9283_prediction(
     mechanism: Mechanism,
     point: Any,
     payload: float,
-    cube: TestCube | None = None,
+    cube: Cube | None = None,
     gravity: bool | None = None,
 ) -> Iso9283Prediction:
     """The position error ``mechanism`` predicts at the ISO 9283 poses (module docstring)
@@ -218,7 +216,7 @@ def iso9283_prediction(
     if not (np.isfinite(payload) and payload >= 0.0):
         raise ArgumentError("payload", "a rated payload >= 0 [kg]", payload)
     where = point if isinstance(point, MeasuredPoint) else measured_point(mechanism, point)
-    cube = test_cube(mechanism, where) if cube is None else cube
+    cube = iso9283_cube(mechanism, where) if cube is None else cube
     weight = [0.0, 0.0, -STANDARD_GRAVITY * float(payload)]
     loads = [PointForce(where.link, weight, where.link_point)] if payload else []
     amap = mechanism.accuracy(where.frame, cube.configurations, payloads=[loads], gravity=gravity)
