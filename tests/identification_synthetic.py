@@ -63,3 +63,24 @@ def measurements(
     if not rotations:
         out.pop("rotation")
     return out
+
+
+def columns(model, frame: str, offset, joints: list[str], poses, forces) -> np.ndarray:
+    """d position / d (b_j, c_j) of every row (pose-major, then force), (M, 3, 2 J): b_j's column
+    J_j sign(tau_j) / 2, c_j's J_j tau_j (c = 1/k), the arm's weight off."""
+    data = model.createData()
+    frame_id = model.getFrameId(frame)
+    indices = [model.joints[model.getJointId(name)].idx_v for name in joints]
+    out = []
+    for q in poses:
+        _, jacobian = point_jacobian(model, data, frame_id, np.asarray(offset, float), q)
+        for force in forces:
+            tau = jacobian[:3].T @ force
+            scale = np.linalg.norm(force) * 2.0 + np.max(np.abs(tau[indices]))
+            row = np.zeros((3, 2 * len(indices)))
+            for j, column in enumerate(indices):
+                side = np.sign(tau[column]) if abs(tau[column]) > ZERO * scale else 0.0
+                row[:, 2 * j] = jacobian[:3, column] * side / 2
+                row[:, 2 * j + 1] = jacobian[:3, column] * tau[column]
+            out.append(row)
+    return np.array(out)

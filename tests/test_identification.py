@@ -162,6 +162,12 @@ def test_noisy_measurements_at_the_designed_poses(tmp_path, robot):
     design = mechanism.design_measurements(point, 120, 10e-6, payload=payload, seed=0)
     assert design.configurations.shape == (120, mechanism.model.nq) and design.status == "ok"
     expected_b, expected_c = design.standard_errors[0::2], design.standard_errors[1::2]
+    # the expected errors, 10 um sqrt(diag((A^T A)^-1)), from the test's own design matrix
+    a = synthetic.columns(mechanism.model, *point, names, design.configurations, design.forces)
+    a = a - np.repeat(a.reshape(120, -1, *a.shape[1:]).mean(axis=1), len(design.forces), axis=0)
+    a = a.reshape(-1, a.shape[2])
+    own = 10e-6 * np.sqrt(np.diag(np.linalg.inv(a.T @ a)))
+    assert np.allclose(design.standard_errors, own, rtol=1e-6, atol=0)
     assert np.all(expected_b < 0.05 / 3 * b) and np.all(expected_c * k < 0.01 / 3)
     data = synthetic_measurements(
         mechanism, robot, names, b, k, design.configurations, design.forces,

@@ -81,6 +81,18 @@ def test_a_hand_written_file_identified_by_the_command(tmp_path, capsys):
     assert values["drive_stiffness"]["value"] == pytest.approx(1000.0, rel=1e-9)
     assert values["backlash"]["prior"] == 0.001
     assert document["identification"]["rms"]["fitted"]["after_m"] < 1e-12
+    # the correlation of b and c by hand: dz's columns 0.5 sign(Fz) / 2 and 0.25 Fz, each less
+    # its pose's mean; corr = -(A^T A)_bc / sqrt((A^T A)_bb (A^T A)_cc)
+    forces = {"A": [-10.0, 10.0, -20.0], "B": [20.0, -5.0, 0.0]}
+    a = np.vstack([
+        np.column_stack([0.25 * np.sign(f), 0.25 * np.array(f)])
+        - np.column_stack([0.25 * np.sign(f), 0.25 * np.array(f)]).mean(axis=0)
+        for f in map(np.array, forces.values())
+    ])  # fmt: skip
+    gram = a.T @ a
+    by_hand = -gram[0, 1] / np.sqrt(gram[0, 0] * gram[1, 1])
+    (pair,) = document["identification"]["correlated"]
+    assert pair["correlation"] == pytest.approx(by_hand, rel=1e-9) and abs(by_hand) > 0.9
     again = cp.load(str(tmp_path / "hinge.urdf"), clearances=out)
     joint = again.joint("hinge")
     assert joint.clearance.backlash == values["backlash"]["value"]
