@@ -227,3 +227,49 @@ def test_the_iso9283_cube_and_its_predicted_errors(tmp_path):
 
 def model_q(mechanism) -> np.ndarray:
     return mechanism.q_nominal
+
+
+def test_the_clearance_file_written_from_xml_and_from_the_block_in_the_urdf(tmp_path):
+    """The identified values written over an XML clearance file, and over the block inside the
+    URDF (base=None), as TOML: both load back with them, the rest of the block kept (the
+    nominal value q = 0.1, the force); a vendor-like URDF without a block and no base is
+    refused, naming the argument."""
+    from clearance_pin.identification import Measurements
+
+    xml = (
+        '<clearance_pin unit="mm">\n  <joint name="hinge" driven="true" backlash="0.001" '
+        'drive_stiffness="500" q="0.1"/>\n  <force link="arm" point="500 0 0" value="0 0 -1"/>\n'
+        "</clearance_pin>\n"
+    )
+    (tmp_path / "hinge.urdf").write_text(HINGE)
+    (tmp_path / "play.xml").write_text(xml)
+    inner = HINGE.replace("</robot>", xml + "</robot>")
+    (tmp_path / "inner.urdf").write_text(inner)
+    q = np.array([[0.1], [0.1], [0.1]])
+    forces = np.array([[0, 0, -10.0], [0, 0, 10.0], [0, 0, -20.0]])
+    # the hinge at q = 0.1: the point at 0.5 (cos q, 0, -sin q); a vertical force's torque
+    # about y is -0.5 cos(q) Fz; the point moves by theta (y x r) = theta 0.5 (-sin q, 0, -cos q)
+    theta = [np.sign(-f) * 0.001 + (-0.5 * np.cos(0.1) * f) / 1000.0 for f in forces[:, 2]]
+    positions = np.array([t * 0.5 * np.array([-np.sin(0.1), 0, -np.cos(0.1)]) for t in theta])
+    data = Measurements.from_arrays([0, 0, 0], q, forces, positions)
+    for model, base in (
+        (tmp_path / "hinge.urdf", tmp_path / "play.xml"),
+        (tmp_path / "inner.urdf", None),
+    ):
+        robot = cp.load(str(model), clearances=base)
+        result = robot.identify(data, point=("arm", [0.5, 0, 0]))
+        assert result.parameter("hinge", "backlash").value == pytest.approx(0.002, rel=1e-9)
+        written = tmp_path / "out.toml"
+        result.write_clearances(written, base=base)
+        again = cp.load(str(tmp_path / "hinge.urdf"), clearances=written)
+        joint = again.joint("hinge")
+        assert joint.clearance.backlash == result.parameter("hinge", "backlash").value
+        stiffness = result.parameter("hinge", "drive_stiffness").value
+        assert (
+            stiffness == pytest.approx(1000.0, rel=1e-9)
+            and joint.clearance.stiffness[3][3] == stiffness
+        )
+        assert again.q_nominal[0] == 0.1 and len(again.loads) == 1
+    bare = cp.load(str(tmp_path / "hinge.urdf"), clearances=tmp_path / "play.xml")
+    with pytest.raises(cp.ArgumentError, match="base"):
+        bare.identify(data, point=("arm", [0.5, 0, 0])).write_clearances(tmp_path / "x.toml")
