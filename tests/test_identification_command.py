@@ -122,9 +122,15 @@ def test_a_design_and_a_cube_out_of_reach(tmp_path, capsys):
         "--point", "arm:0.5,0,0",
     ]  # fmt: skip
     design = ["--design", "4", "--noise", "10um", "--payload", "2", "--candidates", "30"]
-    assert main([*common, *design]) == 0
+    report = tmp_path / "design.json"
+    assert main([*common, *design, "--json", str(report)]) == 0
     printed = capsys.readouterr().out
     assert "hinge backlash" in printed and "hinge drive_stiffness" in printed
+    document = json.loads(report.read_text())
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(document, schema("identify"))
+    assert document["identification"] is None and document["design"]["poses"] == 4
+    assert document["design"]["noise_m"] == pytest.approx(1e-5, rel=1e-12)
     assert main([*common, "--payload", "2", "--iso9283"]) == 4
     assert "no ISO 9283 cube" in capsys.readouterr().err
     assert main([*common, "--iso9283"]) == 2  # without the rated payload
