@@ -172,6 +172,9 @@ def build_parser() -> argparse.ArgumentParser:
         )
         tolerance_command.add_arguments(tolerance)
         tolerance.set_defaults(run=tolerance_command.run)
+    from .identification import command as identification_command
+
+    identification_command.register(commands)
     compile_command.register(commands)
     return parser
 

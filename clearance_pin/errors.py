@@ -65,6 +65,30 @@ def _short_repr(value: object, limit: int = 80) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+class MeasurementError(ClearancePinError, ValueError):
+    """A measurement file (``clearance-pin identify --measurements``) is invalid.
+
+    Attributes:
+        source: the file (or ``"<api>"`` for arrays given in Python).
+        row: its line number (1 = the header), or None for the file as a whole.
+        column: the column's name, or None for the row as a whole.
+        problem: what is wrong, with the value found and the value expected.
+    """
+
+    def __init__(self, source: str, row: int | None, column: str | None, problem: str) -> None:
+        self.source = source
+        self.row = row
+        self.column = column
+        self.problem = problem
+        where = [f"line {row}"] if row is not None else []
+        where += [f"column {column!r}"] if column is not None else []
+        place = f"{', '.join(where)}: " if where else ""
+        super().__init__(f"{source}: {place}{problem}")
+
+    def __reduce__(self) -> tuple[type[Self], tuple[Any, ...]]:
+        return (type(self), (self.source, self.row, self.column, self.problem))
+
+
 class CaseIndexError(ClearancePinError, IndexError):
     """A case index beyond a batch (also an ``IndexError``: a batch is a sequence, iterated
     until its first index out of range)."""

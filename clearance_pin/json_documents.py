@@ -5,7 +5,8 @@ the package (``clearance_pin/schemas/<kind>-<version>.json``, :func:`schema`). Q
 SI unit suffix (``_m``, ``_rad``, ``_N``, ``_N_m``, ``_J``, ``_s``); every vector names its frame.
 Kinds: ``solve`` (an equilibrium, its linear answer, the check), ``envelope`` (the clearance
 envelope of each output), ``tolerance`` (a tolerance sweep, :mod:`.tolerance.command`),
-``accuracy`` (an accuracy map's summary), ``error`` (a failure: what went wrong and the exit
+``accuracy`` (an accuracy map's summary), ``identify`` (drives identified from measured
+deflections, :mod:`.identification.command`), ``error`` (a failure: what went wrong and the exit
 status). Version 1 replaces the unversioned documents of before.
 """
 
@@ -24,6 +25,7 @@ SOLVE_SCHEMA = "clearance_pin/solve/1"
 ENVELOPE_SCHEMA = "clearance_pin/envelope/1"
 TOLERANCE_SCHEMA = "clearance_pin/tolerance/1"
 ACCURACY_SCHEMA = "clearance_pin/accuracy/1"
+IDENTIFY_SCHEMA = "clearance_pin/identify/1"
 ERROR_SCHEMA = "clearance_pin/error/1"
 UNITS = {"translation": "m", "rotation": "rad"}
 
@@ -250,6 +252,7 @@ __all__ = [
     "ACCURACY_SCHEMA",
     "ENVELOPE_SCHEMA",
     "ERROR_SCHEMA",
+    "IDENTIFY_SCHEMA",
     "SOLVE_SCHEMA",
     "TOLERANCE_SCHEMA",
     "envelope_document",

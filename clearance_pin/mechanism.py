@@ -502,6 +502,30 @@ class Mechanism:
 
         return accuracy_map(self, output, configurations, payloads, gravity, payload_point)
 
+    def identify(
+        self,
+        measurements: Any,
+        point: Any,
+        parameters: Any = ("backlash", "drive_stiffness"),
+        **options: Any,
+    ) -> Any:
+        """Each driven joint's backlash and drive stiffness fitted to measured deflections of
+        ``point`` (a frame, or ``(frame, [x, y, z])`` [m] in it): a measurement file or
+        :class:`~clearance_pin.identification.Measurements`; see
+        :func:`clearance_pin.identification.identify` (options: joints, gravity, held_out,
+        rotation_weight, seed)."""
+        from .identification import identify
+
+        return identify(self, measurements, point, parameters, **options)
+
+    def design_measurements(self, point: Any, count: int, noise: float, **options: Any) -> Any:
+        """Where to measure: the ``count`` poses among candidates that determine the drives'
+        backlash and stiffness best (D-optimal), with the standard errors expected for a
+        measurement ``noise`` [m]; see :func:`clearance_pin.identification.design.design_measurements`."""
+        from .identification.design import design_measurements
+
+        return design_measurements(self, point, count, noise, **options)
+
     def resolver(
         self,
         loads: Iterable[Load] | None = None,
