@@ -67,7 +67,7 @@ def test_a_hand_written_file_identified_by_the_command(tmp_path, capsys):
     out, report = tmp_path / "identified.toml", tmp_path / "identify.json"
     status = main([
         "identify", str(tmp_path / "hinge.urdf"), "--clearances", str(tmp_path / "datasheet.toml"),
-        "--point", "arm:0.5,0,0", "--measurements", str(tmp_path / "m.csv"),
+        "--point", "arm@[0.5 0 0]", "--measurements", str(tmp_path / "m.csv"),
         "--write", str(out), "--json", str(report),
     ])  # fmt: skip
     printed = capsys.readouterr().out
@@ -105,7 +105,7 @@ def test_bad_input_exits_2_naming_the_line(tmp_path, capsys):
     (tmp_path / "m.csv").write_text(MEASUREMENTS.replace("1.2,0,0.9945", "1.2,0,0,9945"))
     status = main([
         "identify", str(tmp_path / "hinge.urdf"), "--clearances", str(tmp_path / "datasheet.toml"),
-        "--point", "arm:0.5,0,0", "--measurements", str(tmp_path / "m.csv"),
+        "--point", "arm@[0.5 0 0]", "--measurements", str(tmp_path / "m.csv"),
     ])  # fmt: skip
     assert status == 2
     assert "line 5" in capsys.readouterr().err
@@ -119,7 +119,7 @@ def test_a_design_and_a_cube_out_of_reach(tmp_path, capsys):
     (tmp_path / "datasheet.toml").write_text(DATASHEET)
     common = [
         "identify", str(tmp_path / "hinge.urdf"), "--clearances", str(tmp_path / "datasheet.toml"),
-        "--point", "arm:0.5,0,0",
+        "--point", "arm@[0.5 0 0]",
     ]  # fmt: skip
     design = ["--design", "4", "--noise", "10um", "--payload", "2", "--candidates", "30"]
     report = tmp_path / "design.json"
@@ -146,7 +146,7 @@ def test_the_plan_filled_in_and_identified(tmp_path, capsys):
     sheet = corpus.datasheet_file(tmp_path, robot, *corpus.DATASHEET)
     plan, report = tmp_path / "plan.csv", tmp_path / "identify.json"
     frame, offset = corpus.ROBOTS[robot][2]
-    point = f"{frame}:{','.join(map(str, offset))}"
+    point = f"{frame}@[{' '.join(map(str, offset))}]"
     common = ["identify", str(urdf), "--clearances", str(sheet), "--point", point]
     assert main([*common, "--design", "25", "--payload", "5", "--plan", str(plan),
                  "--candidates", "200"]) == 0  # fmt: skip

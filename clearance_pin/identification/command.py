@@ -1,9 +1,9 @@
 """``clearance-pin identify MODEL``: a robot's drive backlash and stiffness from measured
 deflections, where to measure them, and the accuracy the identified robot predicts.
 
-    clearance-pin identify ur5.urdf --clearances datasheet.toml --point tool0:0.2,0,0.1 \\
+    clearance-pin identify ur5.urdf --clearances datasheet.toml --point 'tool0@[0.2 0 0.1]' \\
         --measurements deflections.csv --write identified.toml --json identify.json
-    clearance-pin identify ur5.urdf --clearances datasheet.toml --point tool0:0.2,0,0.1 \\
+    clearance-pin identify ur5.urdf --clearances datasheet.toml --point 'tool0@[0.2 0 0.1]' \\
         --design 40 --noise 10um --payload 5 --plan to_measure.csv
     clearance-pin identify ... --measurements deflections.csv --payload 5 --iso9283
 
@@ -28,12 +28,21 @@ sub-commands.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 from typing import Any
 
-from ..commands import OK, OUT_OF_TOLERANCE, add_model_arguments, model_options
+from ..commands import (
+    OK,
+    OUT_OF_TOLERANCE,
+    add_gravity_argument,
+    add_json_argument,
+    add_model_arguments,
+    gravity_option,
+    model_options,
+    say,
+    write_json,
+)
 from ..errors import ArgumentError
 from ..json_documents import IDENTIFY_SCHEMA
 
@@ -59,8 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--point",
         required=True,
-        metavar="FRAME[:x,y,z]",
-        help="the measured point: a frame and its offset in the frame [m]",
+        metavar="FRAME|FRAME@[X Y Z]",
+        help="the measured point: a frame, or a point [m] in it (as --output elsewhere)",
     )
     parser.add_argument("--measurements", type=Path, metavar="CSV", help="the measurement file")
     parser.add_argument(
@@ -69,13 +78,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="what to fit: backlash, drive_stiffness or both (default)",
     )
     parser.add_argument("--joints", help="the drives to fit, comma-separated (default: all)")
-    parser.add_argument("--gravity", choices=["on", "off"], help="the arm's own weight")
+    add_gravity_argument(parser)
     parser.add_argument(
         "--held-out", type=float, metavar="SHARE", help="share of the poses kept out of the fit"
     )
     parser.add_argument("--seed", type=int, default=0, help="random choices' seed (default 0)")
     parser.add_argument("--write", type=Path, metavar="FILE", help="the identified clearance file")
-    parser.add_argument("--json", type=Path, metavar="FILE", help="write the report (SI)")
+    add_json_argument(parser, "the report")
     parser.add_argument("--design", type=int, metavar="N", help="choose N poses to measure")
     parser.add_argument(
         "--noise", default="10um", help="measurement noise per coordinate (default 10um)"
@@ -124,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
         raise ArgumentError("--write", "with --measurements CSV", str(args.write))
     kinds = tuple(k.strip() for k in args.parameters.split(",") if k.strip())
     joints = None if args.joints is None else [j.strip() for j in args.joints.split(",")]
-    gravity = {"on": True, "off": False, None: None}[args.gravity]
+    gravity = gravity_option(args)
     noise = parse_length("--noise", args.noise)
     mechanism = load(args.model, **model_options(args))
     document: dict[str, Any] = {
@@ -142,13 +151,13 @@ def run(args: argparse.Namespace) -> int:
             mechanism, args.measurements, args.point, kinds, joints=joints, gravity=gravity,
             held_out=args.held_out, seed=args.seed,
         )  # fmt: skip
-        print(result.table())
+        say(args, result.table())
         document["identification"] = result.to_dict()
         if result.status != "ok" or not result.solver_check <= MODEL_TOLERANCE:
             status = OUT_OF_TOLERANCE
         if args.write is not None:
             result.write_clearances(args.write, args.clearances)
-            print(f"clearance file with the identified values written to {args.write}")
+            say(args, f"clearance file with the identified values written to {args.write}")
         robot = result.identified_mechanism()
     if args.design is not None:
         design = design_measurements(
@@ -156,18 +165,17 @@ def run(args: argparse.Namespace) -> int:
             payload=args.payload, parameters=kinds, joints=joints, gravity=gravity,
             seed=args.seed,
         )  # fmt: skip
-        print(design.table())
+        say(args, design.table())
         document["design"] = design.to_dict()
         if args.plan is not None:
             design.write_plan(args.plan)
-            print(f"measurement plan written to {args.plan}")
+            say(args, f"measurement plan written to {args.plan}")
     if args.iso9283:
         prediction = iso9283_prediction(robot, args.point, args.payload, gravity=gravity)
         which = "identified" if args.measurements is not None else "clearance file's"
-        print(f"with the {which} values:")
-        print(prediction.table())
+        say(args, f"with the {which} values:")
+        say(args, prediction.table())
         document["iso9283"] = prediction.to_dict()
     if args.json is not None:
-        args.json.write_text(json.dumps(document, indent=1))
-        print(f"JSON written to {args.json}")
+        write_json(args, document)
     return status

@@ -32,6 +32,7 @@ import pinocchio as pin
 from ..errors import ArgumentError, NotFoundError, SolverError, UnsupportedError
 from ..kinematics.joint_shares import joint_levers, moved_by
 from ..model.frames import frame_id as find_frame
+from ..model.frames import parse_point, point_name
 from ..model.loads import PointForce
 
 if TYPE_CHECKING:
@@ -74,22 +75,20 @@ class MeasuredPoint:
 
     @property
     def label(self) -> str:
-        x, y, z = (float(v) for v in self.offset)
-        return f"{self.frame}:{x:g},{y:g},{z:g}"
+        """``FRAME@[x y z]``, as outputs are named everywhere (:mod:`..model.frames`)."""
+        return point_name(self.frame, self.offset)
 
 
 def measured_point(mechanism: Mechanism, point: Any) -> MeasuredPoint:
-    """``point``: a frame name, ``(frame, xyz)`` or ``"FRAME:x,y,z"`` (xyz [m] in the frame)."""
+    """``point``: a frame name, ``"FRAME@[x y z]"`` or ``(frame, xyz)`` (xyz [m] in the frame;
+    the same spelling as every output, :mod:`..model.frames`)."""
     if isinstance(point, str):
-        frame, _, rest = point.partition(":")
-        try:
-            offset = np.array([float(v) for v in rest.split(",")]) if rest else np.zeros(3)
-        except ValueError:
-            raise ArgumentError("point", "FRAME or FRAME:x,y,z [m]", point) from None
+        parsed = parse_point(point)
+        frame, offset = (point.strip(), np.zeros(3)) if parsed is None else parsed
     elif isinstance(point, (tuple, list)) and len(point) == 2 and isinstance(point[0], str):
         frame, offset = point[0], np.asarray(point[1], dtype=float)
     else:
-        raise ArgumentError("point", "a frame name, (frame, [x, y, z]) or 'FRAME:x,y,z'", point)
+        raise ArgumentError("point", "a frame name, 'FRAME@[x y z]' or (frame, [x, y, z])", point)
     if offset.shape != (3,) or not np.isfinite(offset).all():
         raise ArgumentError("point", "three finite coordinates [m] in the frame", point)
     model = mechanism.model

@@ -242,7 +242,7 @@ def identify(
         mechanism: the robot, its clearance file's values the priors (and what the fit does not
             change: its bearings' play and compliance, kept fixed).
         measurements: a measurement file (:mod:`.measurements`) or :class:`Measurements`.
-        point: the measured point: a frame, ``(frame, [x, y, z])`` or ``"FRAME:x,y,z"`` [m].
+        point: the measured point: a frame, ``"FRAME@[x y z]"`` or ``(frame, [x, y, z])`` [m].
         parameters: which of ``"backlash"``, ``"drive_stiffness"`` to fit (the other at the
             file's values).
         joints: the drives to fit (default: every driven joint that moves the point).
