@@ -271,3 +271,21 @@ def test_a_lock_or_a_drive_term_a_coupling_cannot_hold_is_refused_by_name():
     passive = belt_arm(leader="", follower='backlash="4e-4"').replace('driven="true"', "")
     with pytest.raises(cp.ModelError, match=r"j2.*backlash belong to a drive.*follows 'j1'"):
         cp.loads(passive)
+
+
+def test_a_follower_put_out_of_its_limits_by_its_leader_is_said_so():
+    """Found by a new user (the PR2's parallel gripper joints): a follower whose mimic puts it
+    outside its URDF limits was warned with a degrees-for-radians hint; the warning now says
+    that its leader's value puts it there."""
+    arm = cp.loads(
+        belt_arm().replace(
+            '<axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="1"/>\n'
+            '    <mimic joint="j1"',
+            '<axis xyz="0 0 1"/><limit lower="0" upper="0.2" effort="10" velocity="1"/>\n'
+            '    <mimic joint="j1"',
+        )
+    )
+    q = arm.q_nominal.copy()
+    q[arm.model.joints[arm.model.getJointId("j1")].idx_q] = 0.4  # j2 = 0.5 x 0.4 + 0.1 = 0.3
+    with pytest.warns(cp.SuspectValueWarning, match=r"'j2'.*follows 'j1' through its <mimic>"):
+        arm.solve_many(configurations=[q], gravity=False)

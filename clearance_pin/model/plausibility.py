@@ -147,8 +147,10 @@ def nominal_problem(model: pin.Model, joint_id: int, value: float) -> str | None
         problem = f"nominal value {value:.6g} rad is more than a turn"
     else:
         return None
-    if revolute:
+    if revolute and abs(value) > TURN:  # a value within a turn is no degree typed as radians
         problem += f"; q is in radians ({value:.6g} deg would be {math.radians(value):.6g} rad)"
+    elif revolute:
+        problem += "; q is in radians"
     else:
         problem += "; q of a prismatic joint is a length, in metres (in a file: in its unit)"
     return problem
@@ -173,6 +175,14 @@ def warn_configurations(mechanism: Checked, q: np.ndarray, stacklevel: int = 2) 
         if beyond.any():
             first = int(np.flatnonzero(beyond)[0])
             problem = nominal_problem(model, joint_id, float(values[first]))
+            follows = [c for c in getattr(mechanism, "couplings", ()) if
+                       c.follower == model.names[joint_id]]  # fmt: skip
+            if follows:  # not the user's value: the coupling's, from its leader's
+                c = follows[0]
+                problem = (
+                    f"{problem}; it follows {c.leader!r} through its <mimic> "
+                    f"({c.multiplier:g} x q + {c.offset:g}): the leader's value puts it there"
+                )
             _warn(
                 f"{mechanism.source}: configurations: {int(beyond.sum())} of {len(q)} put joint "
                 f"{model.names[joint_id]!r} outside its limits or beyond a turn; the first, "
