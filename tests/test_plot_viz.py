@@ -319,3 +319,15 @@ def test_unknown_backend_and_missing_viser(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "viser", None)
     with pytest.raises(clearance_pin.ClearancePinError, match=r"clearance_pin\[viser\]"):
         show_equilibrium(equilibrium, backend="viser")
+
+
+def test_a_skeleton_alone_is_not_called_parts_at_true_size():
+    """A URDF without visual geometry (the bundled arm) is drawn as its skeleton: the legend
+    says so instead of "parts at true size" (found by a new user), and a model with parts says
+    that a gap between them is their magnified play."""
+    pytest.importorskip("meshcat")
+    equilibrium = clearance_pin.load(MODELS / "arm_6r.urdf").solve()
+    with show_equilibrium(equilibrium) as view:
+        legend = view.legend
+    assert "skeleton only (the model has no visual geometry)" in legend
+    assert "parts at true size" not in legend

@@ -191,7 +191,7 @@ def show_equilibrium(
                 sent.append(node)
         if show_skeleton or not meshes:
             sent += _draw_skeleton(viewer, bones, m, f"{root}/skeleton")
-        legend, bar = scale_legend(m, bones.size(), _largest_play([bones]))
+        legend, bar = scale_legend(m, bones.size(), _largest_play([bones]), meshes)
         sent += _draw_legend(viewer, legend, m * bar, bones, f"{root}/legend")
         _aim_camera(viewer, bones, root)
     except BaseException:
@@ -285,7 +285,7 @@ def show_trajectory(
                 tracks.key(visible, "visible", "boolean", float(k), True)
                 if k + 1 < len(bones):
                     tracks.key(visible, "visible", "boolean", float(k + 1), False)
-        legend, bar = scale_legend(m, size, _largest_play(bones))
+        legend, bar = scale_legend(m, size, _largest_play(bones), meshes)
         failed = len(items) - len(answers)
         legend += (f"{len(answers)} answers, {number(fps)} per second",)
         if failed:
@@ -338,14 +338,17 @@ def length_text(value: float) -> str:
     return f"{value:.3g} m"
 
 
-def scale_legend(magnification: float, size: float, play: float) -> tuple[tuple[str, ...], float]:
+def scale_legend(
+    magnification: float, size: float, play: float, parts: bool = True
+) -> tuple[tuple[str, ...], float]:
     """The legend's lines and the displacement the scale bar stands for [m].
 
     The bar stands for a round displacement (1-2-5 series) that, magnified, is drawn at about
     :data:`BAR_FRACTION` of ``size`` [m]; ``play`` [m] is the largest radial play (no line when
     0). E.g. at m = 200 on a 0.5 m mechanism with 50 um play: ``displacements and play x200``,
     ``bar: 500 um of displacement``, ``(drawn 100 mm)``, ``play 50 um drawn 10 mm``,
-    ``parts at true size``."""
+    ``parts at true size``, ``gaps between parts: their play, magnified``; ``parts`` False (no
+    visual geometry, the skeleton alone): ``skeleton only (no visual geometry)``."""
     m = magnification
     bar = nice_round(BAR_FRACTION * size / m)
     lines = [
@@ -355,7 +358,10 @@ def scale_legend(magnification: float, size: float, play: float) -> tuple[tuple[
     ]
     if play > 0.0:
         lines.append(f"play {length_text(play)} drawn {length_text(m * play)}")
-    lines.append("parts at true size")
+    if parts:
+        lines += ["parts at true size", "gaps between parts: their play, magnified"]
+    else:
+        lines.append("skeleton only (the model has no visual geometry)")
     return tuple(lines), bar
 
 
@@ -693,6 +699,9 @@ def _aim_camera(viewer: Any, bones: Skeleton, root: str) -> None:
     :data:`CAMERA` (three.js axes, y up)."""
     viewer["/Axes"].set_property("visible", False)
     viewer["/Grid"].set_property("visible", False)
+    # a light background: the legend's black text and bar read on it (meshcat's is dark)
+    viewer["/Background"].set_property("top_color", [1.0, 1.0, 1.0])
+    viewer["/Background"].set_property("bottom_color", [0.88, 0.9, 0.94])
     shift = np.eye(4)
     shift[:3, 3] = -centre(bones)
     viewer[root].set_transform(shift)

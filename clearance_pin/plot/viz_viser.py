@@ -90,7 +90,7 @@ def show_viser(
                     )
         if show_skeleton or not meshes:
             handles.update(_skeleton(server, bones, m, f"{root}/skeleton"))
-        legend, bar = scale_legend(m, bones.size(), _largest_play([bones]))
+        legend, bar = scale_legend(m, bones.size(), _largest_play([bones]), meshes)
         handles.update(_legend(server, legend, m * bar, bones, f"{root}/legend"))
         middle = centre(bones)
         camera = middle + 2.0 * bones.size() * CAMERA  # as meshcat's first camera
