@@ -329,5 +329,5 @@ def test_a_skeleton_alone_is_not_called_parts_at_true_size():
     equilibrium = clearance_pin.load(MODELS / "arm_6r.urdf").solve()
     with show_equilibrium(equilibrium) as view:
         legend = view.legend
-    assert "skeleton only (the model has no visual geometry)" in legend
+    assert "skeleton only: no meshes" in legend
     assert "parts at true size" not in legend

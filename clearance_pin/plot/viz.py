@@ -347,8 +347,8 @@ def scale_legend(
     :data:`BAR_FRACTION` of ``size`` [m]; ``play`` [m] is the largest radial play (no line when
     0). E.g. at m = 200 on a 0.5 m mechanism with 50 um play: ``displacements and play x200``,
     ``bar: 500 um of displacement``, ``(drawn 100 mm)``, ``play 50 um drawn 10 mm``,
-    ``parts at true size``, ``gaps between parts: their play, magnified``; ``parts`` False (no
-    visual geometry, the skeleton alone): ``skeleton only (no visual geometry)``."""
+    ``parts at true size``, ``gaps: play and deflection`` (magnified as the rest); ``parts``
+    False (no visual geometry, the skeleton alone): ``skeleton only: no meshes``."""
     m = magnification
     bar = nice_round(BAR_FRACTION * size / m)
     lines = [
@@ -359,9 +359,9 @@ def scale_legend(
     if play > 0.0:
         lines.append(f"play {length_text(play)} drawn {length_text(m * play)}")
     if parts:
-        lines += ["parts at true size", "gaps between parts: their play, magnified"]
+        lines += ["parts at true size", "gaps: play and deflection"]
     else:
-        lines.append("skeleton only (the model has no visual geometry)")
+        lines.append("skeleton only: no meshes")
     return tuple(lines), bar
 
 
