@@ -264,27 +264,22 @@ def test_bad_arguments():
         cp.from_model(model, loop_joints=[("pin_B", {})], clearances={})
 
 
-def test_the_docs_example_runs(tmp_path, monkeypatch):
-    """docs/model-format.md's from_model example, with the files it names written here: the
-    vendor UR5, its TOML clearance file from the same page, the four-bar's URDF without its
-    block."""
-    import shutil
-
+def test_the_docs_example_runs(monkeypatch):
+    """docs/model-format.md's from_model example, from the repository's root with the files it
+    names (the vendor UR5 of example-robot-data, models/ur5_play.toml, the four-bar's URDF):
+    the UR5 built from a pin.Model and its clearance file is the one clearance_pin.load reads
+    from the URDF and the same file."""
     _, corpus = ur5_model()
-    shutil.copy(corpus.vendor_file(corpus.ROBOTS["ur5"][0]), tmp_path / "ur5_robot.urdf")
-    (tmp_path / "four_bar_tree.urdf").write_text(split(FOUR_BAR.read_text())[0])
-    from test_clearance_file import docs_example
-
-    (tmp_path / "ur5_play.toml").write_text(docs_example("toml"))
+    urdf = corpus.vendor_file(corpus.ROBOTS["ur5"][0])
     text = (ROOT / "docs" / "model-format.md").read_text()
     code = text.split("## From Python, without files")[1].split("```python\n")[1].split("```")[0]
-    monkeypatch.chdir(tmp_path)
+    monkeypatch.chdir(ROOT)
     namespace: dict = {"pin": pin, "clearance_pin": cp}
     exec(code, namespace)
     four_bar, ur5 = namespace["four_bar"], namespace["ur5"]
     assert four_bar.solve().ok and ur5.solve().ok
     assert four_bar.joint("pin_B").clearance == cp.model.Clearance("planar_revolute", 5e-5)
-    assert_same_mechanism(ur5, corpus.mechanism("ur5"))
+    assert_same_mechanism(ur5, cp.load(str(urdf), clearances="models/ur5_play.toml"))
 
 
 def test_load_takes_a_dict_of_clearances_too(tmp_path):
