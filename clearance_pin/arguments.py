@@ -15,6 +15,7 @@ latter a load was solved as no load (no contact) before, without a word.
 
 from __future__ import annotations
 
+import math
 import numbers
 import os
 from collections.abc import Iterable, Mapping, Sequence
@@ -26,14 +27,13 @@ import numpy as np
 from .errors import ArgumentError, LoadError, ModelError
 from .model import plausibility
 from .model.loads import Gravity, PointForce, Torque, added_gravity
+from .numerics import LARGEST_MAGNITUDE
 
 if TYPE_CHECKING:
     from .mechanism import Mechanism
 
 LOAD_TYPES = (PointForce, Torque, Gravity)
 
-#: the largest load [N, N m, m/s^2] or point coordinate [m] taken (module docstring)
-LARGEST_MAGNITUDE = 1e150
 #: the smallest load [N, N m, m/s^2] taken, unless it is exactly zero (module docstring)
 SMALLEST_LOAD = 1e-150
 #: a joint's play is refused above this many times the mechanism's size (check_clearance_sizes)
@@ -196,7 +196,8 @@ def _check_case_magnitudes(
     smallest_case = per_case[per_case > 0.0].min(initial=np.inf)
     # a point beyond 1 m multiplies its force's magnitude: the product of the largest point and
     # the largest force bounds every moment
-    if largest.max() ** 2 <= LARGEST_MAGNITUDE and smallest_case >= SMALLEST_LOAD:
+    # (compared with the square root: the square of a value beyond it overflows)
+    if largest.max() <= math.sqrt(LARGEST_MAGNITUDE) and smallest_case >= SMALLEST_LOAD:
         return {}
     refused = {}
     for index, case in listed:

@@ -10,6 +10,10 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+#: the largest load [N, N m, m/s^2], point coordinate or model origin [m] taken: every product
+#: of two of them stays within double precision (clearance_pin.arguments' docstring)
+LARGEST_MAGNITUDE = 1e150
+
 # the array types the solver's annotations name (equilibrium/ and what it reads)
 Array = npt.NDArray[np.float64]
 Mask = npt.NDArray[np.bool_]

@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import os
 import tomllib
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import mechanism_strategies  # noqa: F401  (keeps Hypothesis's examples independent of imports)
 import numpy as np
+import pytest
 
 import clearance_pin as cp
 from clearance_pin.model.builders import JointSpec, shaft_urdf
@@ -203,3 +205,19 @@ def one_line(err: str) -> str:
     assert len(lines) == 1, err
     assert lines[0].startswith("clearance-pin: "), err
     return lines[0]
+
+
+@pytest.fixture
+def extremes_warn():
+    """For a test that drives values to extremes on purpose (plays from 1e-7 to 10 % of a part,
+    a model scaled to mm, random mechanisms with drawn plays and lengths): the plausibility and
+    validity warnings it meets are expected there, and asserted to be those and nothing else
+    (the suite turns any other warning of the project into an error, pyproject.toml). Yields
+    the list of the warnings recorded."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield caught
+    expected = (cp.SuspectValueWarning, cp.ConditioningWarning, cp.HeldMotionWarning)
+    others = [f"{w.category.__name__}: {w.message}" for w in caught
+              if not issubclass(w.category, expected)]  # fmt: skip
+    assert others == [], others

@@ -137,6 +137,8 @@ def test_output_frames_are_reported(capsys):
     assert "wrist_2" in json.loads(out)["equilibrium"]["outputs"]
 
 
+# the warnings are the test's subject: shown (printed by the command), and asserted as printed
+@pytest.mark.filterwarnings("default::clearance_pin.errors.ClearancePinWarning")
 def test_warnings_are_one_line(tmp_path, capsys):
     """A warning (here: clearances typed in mm) reaches the user as one line each, naming the
     joint, without Python's source echo."""

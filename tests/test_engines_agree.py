@@ -151,7 +151,7 @@ def _disagreements(reference, other, clearance: float) -> dict[str, float]:
 
 
 @pytest.mark.filterwarnings("ignore::clearance_pin.ConditioningWarning")
-def test_every_engine_gives_the_same_answer():
+def test_every_engine_gives_the_same_answer(extremes_warn):
     """Torsors, energies and contact forces of every linear engine against the default path's,
     and the exact answers of the default and IPOPT paths against each other: no disagreement on
     at least 200 random mechanisms (counts printed)."""

@@ -192,7 +192,7 @@ def test_ideal_journal_as_a_loop_joint():
         ),
     ],
 )
-def test_nearly_ideal_joint_tends_to_the_ideal_one(diametral):
+def test_nearly_ideal_joint_tends_to_the_ideal_one(diametral, extremes_warn):
     """6.2.2 with J2 -> 0: the equilibrium tends to that of the ideal ball, continuously:
     |T1(J2) - T1(0)| <= J2 (the pivot moves by at most c2 = J2/2, lever ratio <= 2)."""
     ideal = ideal_second_joint("6.2.2", 0.0).solve()

@@ -151,6 +151,7 @@ def fuzz_settings(examples: int) -> settings:
             HealthCheck.too_slow,
             HealthCheck.data_too_large,
             HealthCheck.filter_too_much,
+            HealthCheck.function_scoped_fixture,  # extremes_warn records over every example
         ],
     )
 
@@ -349,7 +350,7 @@ def test_mutated_model_files_are_handled(text):
 
 @fuzz_settings(150)
 @given(text=template_texts())
-def test_clearance_block_values_are_validated(text):
+def test_clearance_block_values_are_validated(text, extremes_warn):
     """Every value of a clearance block (kinds, clearances, lengths, axes, frames, load) is
     validated: odd values are rejected naming the element, good ones solve cleanly."""
     assert_handled(text)

@@ -23,7 +23,6 @@ from typing import Any
 import numpy as np
 
 from ..arguments import (
-    LARGEST_MAGNITUDE,
     SMALLEST_LOAD,
     check_case,
     check_configurations,
@@ -34,6 +33,7 @@ from ..deflection_check import batch_deflections, warn_answer, warn_large_deflec
 from ..errors import ArgumentError, ClearancePinError, SolverError
 from ..model.loads import PointForce, Torque, with_vector
 from ..model.stiffness import stiff_joints
+from ..numerics import LARGEST_MAGNITUDE
 from .blocks import block_structure
 from .cone_solver import clarabel_available
 from .fast_path import BoundLoads, FastTerms, fast_terms, kernel_installed

@@ -783,7 +783,9 @@ class _BlockReader:
                     )
                     if element.get("point") is not None:
                         body = int(model.frames[model.getFrameId(link)].parentJoint)
-                        distance = float(np.linalg.norm(point))
+                        distance = math.hypot(
+                            *point
+                        )  # of a point near double's largest: no overflow
                         self.lengths.append(Length(label, "point", distance, "point", (body,)))
                     loads.append(PointForce(link, value, point))
                 else:

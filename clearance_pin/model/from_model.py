@@ -23,6 +23,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from ..errors import ArgumentError, ModelError, NotFoundError
+from . import plausibility
 from .block import empty_block, joint_table, read_block, read_loop_joints, set_nominal
 from .clearance_file import ClearanceSource, clearance_block, loop_joint_elements
 from .couplings import coupled
@@ -88,6 +89,7 @@ def describe_model(
     given = model
     # a copy, its mimic joints (mimic=True) as ordinary joints tied by couplings
     model, couplings = without_mimic(pin.Model(model), source)
+    plausibility.check_magnitudes(source, model)  # before any length of it is measured
     if couplings and q is not None and not isinstance(q, Mapping):
         q = _unmimicked_q(given, model, q)
     beside = clearance_block(clearances, dict_source=source)

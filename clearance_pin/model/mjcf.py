@@ -40,6 +40,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError
+from . import plausibility
 from .block import (
     BLOCK,
     ClearanceBlock,
@@ -95,6 +96,7 @@ def read_mjcf(
     _check_depth(placements.tree, source)  # with its <include> files spliced in
     rewritten = _pinocchio_text(placements.tree, path)
     model = _build(rewritten, source)
+    plausibility.check_magnitudes(source, model)  # before any length of it is measured
     _check_tree(placements.tree, model, source)
     if placements.root is not None:
         _compose_root(model, placements.tree, pin.SE3(*placements.root))

@@ -32,6 +32,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from ..errors import ArgumentError, ModelError, SuspectValueWarning
+from . import plausibility
 from .block import BLOCK, ClearanceBlock, JointTable, empty_block, read_block
 from .clearance_file import ClearanceSource, clearance_block, no_clearances
 from .couplings import urdf_couplings
@@ -106,6 +107,7 @@ def _read(
         directories = (*directories, str(mesh_dir))
     reader = _Reader(text, root, source)
     model = reader.pin_model()
+    plausibility.check_magnitudes(source, model)  # before any length of it is measured
     own = reader.block()
     if beside is not None and own is not None:
         raise ModelError(

@@ -29,7 +29,8 @@ from typing import Protocol
 import numpy as np
 import pinocchio as pin
 
-from ..errors import SuspectValueWarning
+from ..errors import ModelError, SuspectValueWarning
+from ..numerics import LARGEST_MAGNITUDE
 from .clearance import ALPHA, Clearance
 from .dimensions import Dimension
 from .joints import MOTION_COMPONENT_BY_PIN_JOINT, LoopJoint, TreeJoint
@@ -119,6 +120,25 @@ def _largest_play(clearance: Clearance) -> str:
     if clearance.play_z is not None and clearance.max_play == clearance.play_z:
         return "play_z"
     return "radial_clearance or diametral_clearance / 2"
+
+
+def check_magnitudes(source: str, model: pin.Model) -> None:
+    """Refuse a model whose joint or frame origins lie beyond :data:`LARGEST_MAGNITUDE` [m]
+    (1e150: every product of two lengths must stay within double precision), naming the first
+    such joint or frame; before any length of it is measured."""
+    places = [(f"<joint name='{model.names[j]}'>", model.jointPlacements[j].translation)
+              for j in range(1, model.njoints)]  # fmt: skip
+    places += [(f"<link name='{f.name}'>", f.placement.translation) for f in model.frames]
+    for label, origin in places:
+        largest = float(np.max(np.abs(origin), initial=0.0))
+        if not largest <= LARGEST_MAGNITUDE:
+            raise ModelError(
+                source,
+                label,
+                f"its origin {largest:.3g} m away is beyond what double precision carries "
+                f"(at most {LARGEST_MAGNITUDE:.0e} m: every product of two lengths must stay "
+                "finite)",
+            )
 
 
 def limits_of(model: pin.Model, joint_id: int) -> tuple[float, float] | None:
