@@ -1,5 +1,5 @@
 # Two entry points for a fresh machine (Python 3.11+ and PyPI only); each makes .venv on first use
-# and compiles the numba kernel of re-solves into numba's cache (about a minute, once): no solve
+# and compiles the numba kernel of re-solves into numba's cache (20-30 s, once): no solve
 # waits. `demo` installs what running needs (the package, plots, Clarabel); `test` adds the test
 # toolchain (pytest, linters, peers, example robots, MuJoCo, Dask) to the same .venv.
 PYTHON ?= python3

@@ -6,7 +6,7 @@ looked for under ``--package-dir`` (docs/model-format.md). The options that mean
 are spelt the same way everywhere:
 
 - ``--json [FILE]``: the result as JSON into FILE, or on standard output without FILE (the
-  table is then not printed, and what would be said beside it goes to standard error);
+  document alone: no table);
 - ``--gravity on|off``: the robot's or mechanism's own weight (default: the model file's);
 - ``--output FRAME|LINK@[X Y Z]``: a Pinocchio frame, or a point of a link [m] in its frame.
 """
@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -77,9 +76,11 @@ def json_on_stdout(args: argparse.Namespace) -> bool:
 
 
 def say(args: argparse.Namespace, text: str) -> None:
-    """Print what a person reads: on standard output, or on standard error when standard
-    output carries the JSON document."""
-    print(text, file=sys.stderr if json_on_stdout(args) else sys.stdout)
+    """Print what a person reads on standard output; nothing when standard output carries the
+    JSON document (``--json`` without FILE: the document says it all; warnings and a non-zero
+    exit's line still go to standard error)."""
+    if not json_on_stdout(args):
+        print(text)
 
 
 def write_json(args: argparse.Namespace, document: dict[str, Any]) -> None:
