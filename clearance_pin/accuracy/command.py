@@ -261,6 +261,8 @@ def table(amap: Any) -> str:
     else:
         lines.insert(2, "reach: not computed (loop joints, couplings or joints not independent)")
     lines.append("what moves the output most (largest share over the map):")
-    for source, joint, value in amap.ranking():
-        lines.append(f"  {joint:<24} {source:<9} {value * UM:10.2f} um")
+    ranking = amap.ranking()
+    width = max((len(source) for source, _, _ in ranking), default=0)  # the column fits them
+    for source, joint, value in ranking:
+        lines.append(f"  {joint:<24} {source:<{width}} {value * UM:10.2f} um")
     return "\n".join(lines)

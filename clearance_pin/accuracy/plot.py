@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
+from ..model.frames import frame_id as find_frame
+from ..model.frames import parse_point
 from ..plot.style import new_figure, save
 
 if TYPE_CHECKING:
@@ -46,7 +48,9 @@ def plot_accuracy(amap: AccuracyMap, mechanism: Mechanism, path: str | Path | No
             color="tab:red",
             label="largest reach (free motions included)",
         )
-        spread.legend(loc="upper left", fontsize="small")
+        top = max(float(np.nanmax(norms)), float(np.nanmax(amap.reach)) * UM)  # [um]
+        spread.set_ylim(0.0, 1.15 * top)
+        spread.legend(loc="lower right", fontsize="small")  # the boxes rise from zero: room
     _workspace(figure, where, amap, mechanism, norms[:, -1])
     _contributors(sources, amap)
     largest, pose, payload = amap.largest()
@@ -112,11 +116,13 @@ def _positions(amap: AccuracyMap, mechanism: Mechanism) -> np.ndarray:
     """The output's nominal position at every pose, (Q, 3) [m], world frame."""
     model = mechanism.model
     data = model.createData()
-    frame = model.getFrameId(amap.output)
+    parsed = parse_point(amap.output)  # a point of a link, link@[x y z], or a frame
+    name, local = (amap.output, np.zeros(3)) if parsed is None else parsed
+    frame = find_frame(model, name)
     points = np.empty((amap.configurations.shape[0], 3))
     for i, q in enumerate(amap.configurations):
         pin.framesForwardKinematics(model, data, q)
-        points[i] = data.oMf[frame].translation
+        points[i] = data.oMf[frame].act(local)
     return points
 
 
