@@ -35,14 +35,7 @@ import identification_synthetic as synthetic
 import clearance_pin
 from clearance_pin.identification import Measurements
 
-JOINTS = {
-    "shoulder_pan_joint": 0.3,
-    "shoulder_lift_joint": -1.0,
-    "elbow_joint": 1.2,
-    "wrist_1_joint": -0.8,
-    "wrist_2_joint": 0.6,
-    "wrist_3_joint": 0.4,
-}
+JOINTS = arms.VENDOR["ur5"][1]  # the nominal pose [rad], as the arm benchmarks'
 BACKLASH = np.array([5e-4, 4e-4, 6e-4, 8e-4, 7e-4, 9e-4])  # [rad], the "true" drives
 STIFFNESS = np.array([3.0e4, 2.5e4, 1.5e4, 6e3, 5e3, 4e3])  # [N m/rad]
 POINT = ("tool0", [0.2, 0.0, 0.1])

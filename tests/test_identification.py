@@ -25,35 +25,11 @@ import arms  # benchmarks/arms.py: where the vendor files are
 import identification_synthetic as synthetic  # tests/, Pinocchio only
 
 G = 9.80665
+# per robot: its vendor file and nominal pose [rad] (benchmarks/arms.py, shared with the
+# corpus tests), the measured frame and offset [m], the rated payload [kg]
 ROBOTS = {
-    # vendor file, nominal pose [rad], measured frame and offset [m], rated payload [kg]
-    "ur5": (
-        "ur_description/urdf/ur5_robot.urdf",
-        {
-            "shoulder_pan_joint": 0.3,
-            "shoulder_lift_joint": -1.0,
-            "elbow_joint": 1.2,
-            "wrist_1_joint": -0.8,
-            "wrist_2_joint": 0.6,
-            "wrist_3_joint": 0.4,
-        },
-        ("tool0", [0.2, 0.0, 0.1]),
-        5.0,
-    ),
-    "panda": (
-        "panda_description/urdf/panda.urdf",
-        {
-            "panda_joint1": 0.2,
-            "panda_joint2": -0.4,
-            "panda_joint3": 0.1,
-            "panda_joint4": -2.0,
-            "panda_joint5": 0.3,
-            "panda_joint6": 1.6,
-            "panda_joint7": 0.5,
-        },
-        ("panda_hand_tcp", [0.25, 0.0, 0.0]),
-        3.0,
-    ),
+    "ur5": (*arms.VENDOR["ur5"][:2], ("tool0", [0.2, 0.0, 0.1]), 5.0),
+    "panda": (*arms.VENDOR["panda"][:2], ("panda_hand_tcp", [0.25, 0.0, 0.0]), 3.0),
 }
 # the "true" drives (a cobot's harmonic drives: 1.4-3 arcmin of lost motion, 4e3-3e4 N m/rad)
 TRUE = {
