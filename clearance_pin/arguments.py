@@ -30,7 +30,7 @@ from .model.loads import Gravity, PointForce, Torque, added_gravity
 from .numerics import LARGEST_MAGNITUDE
 
 if TYPE_CHECKING:
-    from .mechanism import Mechanism
+    from .model.mechanism_parts import MechanismParts as Mechanism
 
 LOAD_TYPES = (PointForce, Torque, Gravity)
 

@@ -186,7 +186,7 @@ class Mechanism:
         """The same mechanism on another ``pin.Model`` of the same tree (a manufactured one:
         :func:`clearance_pin.tolerance.dimensions.with_deviations`), its loops closed from this
         mechanism's nominal configuration; its values are not checked again."""
-        return self._rebuilt(model, self.tree_joints, self.loop_joints)
+        return self.rebuilt(model, self.tree_joints, self.loop_joints)
 
     def without_stiffness(self) -> Mechanism:
         """The same mechanism with rigid joints: every joint's stiffness removed, its play,
@@ -198,9 +198,9 @@ class Mechanism:
         def rigid(joints: tuple[Joint, ...]) -> tuple[Joint, ...]:
             return tuple(replace(j, clearance=replace(j.clearance, stiffness=None)) for j in joints)
 
-        return self._rebuilt(self.model, rigid(self.tree_joints), rigid(self.loop_joints))
+        return self.rebuilt(self.model, rigid(self.tree_joints), rigid(self.loop_joints))
 
-    def _rebuilt(
+    def rebuilt(
         self,
         model: pin.Model,
         tree_joints: tuple[TreeJoint, ...],

@@ -29,7 +29,7 @@ from .tree_map import blocks_of, placements, tree_cases
 from .tree_map import levers as tree_levers
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 STANDARD_GRAVITY = 9.80665  # [m/s^2], a payload mass's weight
 SOURCES = ("play", "backlash", "bearing compliance", "drive compliance")

@@ -14,7 +14,7 @@ from ..model.frames import parse_point
 from ..plot.style import new_figure, save
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
     from .accuracy_map import AccuracyMap
 
 UM = 1e6  # [um per m]

@@ -59,7 +59,7 @@ from ..model.loads import Gravity
 from ..model.stiffness import elastic
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 CHUNK = 1024  # cases per closed-form pass (as the block batch: its arrays stay in the cache)
 

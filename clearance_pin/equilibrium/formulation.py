@@ -81,7 +81,7 @@ def _part_stiffness_twin(mechanism: Any, linear: Equilibrium) -> Any:
             return replace(joint, clearance=clearance)
 
         tree = tuple(in_part(joint) for joint in mechanism.tree_joints)
-        twin = twins[key] = mechanism._rebuilt(mechanism.model, tree, mechanism.loop_joints)
+        twin = twins[key] = mechanism.rebuilt(mechanism.model, tree, mechanism.loop_joints)
     return twin
 
 

@@ -21,10 +21,10 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..arguments import check_point
 from ..errors import ArgumentError
 from ..model.frames import frame_id, parse_point, point_name
 from ..model.loads import PointForce, Torque
+from ..numerics import LARGEST_MAGNITUDE
 
 
 @dataclass(frozen=True)
@@ -156,7 +156,8 @@ def _link_point(mechanism: Any, argument: str, text: str) -> OutputPoint | None:
         )
     if local.shape != (3,) or not np.all(np.isfinite(local)):
         raise ArgumentError(argument, "link@[x y z]: 3 finite numbers [m], link frame", text)
-    check_point(argument, local, text)
+    if float(np.abs(local).max()) > LARGEST_MAGNITUDE:  # its square would overflow
+        raise ArgumentError(argument, f"a point within {LARGEST_MAGNITUDE:.0e} m", text)
     frame = mechanism.model.frames[mechanism.link_frames[link]]
     if frame.parentJoint == 0:
         raise ArgumentError(argument, "a point of a moving part", text, "it is on the ground")

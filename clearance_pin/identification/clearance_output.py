@@ -26,7 +26,7 @@ from ..model.clearance_file import (
 )
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 UNIT_FACTORS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}  # [m per unit]
 BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")

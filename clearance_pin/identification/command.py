@@ -45,6 +45,7 @@ from ..commands import (
 )
 from ..errors import ArgumentError
 from ..json_documents import IDENTIFY_SCHEMA
+from ..model.mechanism_parts import MechanismParts
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6}
 MODEL_TOLERANCE = 1e-9  # [m] the linear model against the solver (it is the solver's, to round-off)
@@ -145,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
         "iso9283": None,
     }
     status = OK
-    robot = mechanism
+    robot: MechanismParts = mechanism
     if args.measurements is not None:
         result = identify(
             mechanism, args.measurements, args.point, kinds, joints=joints, gravity=gravity,

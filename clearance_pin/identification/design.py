@@ -34,7 +34,7 @@ from .fit import RANK_RTOL, centred, observability
 from .measurements import STANDARD_GRAVITY
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 __all__ = ["Design", "candidate_poses", "design_measurements", "payload_forces"]
 

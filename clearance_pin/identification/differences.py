@@ -36,8 +36,8 @@ from ..model.frames import parse_point, point_name
 from ..model.loads import PointForce
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
     from ..model.joints import TreeJoint
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 KINDS = ("backlash", "drive_stiffness")
 ZERO_TORQUE = 1e-9  # a change of torque below this share of the largest torque: no change
@@ -225,8 +225,6 @@ def drive_values(joint: TreeJoint) -> tuple[float, float]:
 def with_drives(mechanism: Mechanism, values: dict[str, tuple[float, float]]) -> Mechanism:
     """The same mechanism with drive ``name``'s backlash b and drive stiffness k set to
     ``values[name] = (b, k)`` (k = inf: a rigid drive); its values not checked again."""
-    from ..mechanism import Mechanism
-
     joints = []
     for joint in mechanism.tree_joints:
         if joint.name not in values:
@@ -245,19 +243,7 @@ def with_drives(mechanism: Mechanism, values: dict[str, tuple[float, float]]) ->
         stiffness = tuple(tuple(float(v) for v in row) for row in matrix) if matrix.any() else None
         clearance = replace(joint.clearance, backlash=float(b), stiffness=stiffness)
         joints.append(replace(joint, clearance=clearance))
-    return Mechanism(
-        mechanism.model,
-        tuple(joints),
-        mechanism.loop_joints,
-        mechanism.q_nominal,
-        mechanism.loads,
-        mechanism.gravity,
-        source=mechanism.source,
-        name=mechanism.name,
-        dimensions=mechanism.dimensions,
-        check_values=False,
-        couplings=mechanism.couplings,
-    )
+    return mechanism.rebuilt(mechanism.model, tuple(joints), mechanism.loop_joints)
 
 
 def difference_model(

@@ -24,7 +24,7 @@ from .fit import CORRELATED, LeastSquares, centred, least_squares, rms
 from .measurements import Measurements, read_measurements
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 __all__ = ["IdentifiedParameter", "Identification", "identify"]
 

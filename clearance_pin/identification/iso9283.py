@@ -37,7 +37,7 @@ from .differences import MeasuredPoint, measured_point
 from .measurements import STANDARD_GRAVITY
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 SOURCES = ("play", "backlash", "compliance")
 CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, 1], [-1, 1, 1]], dtype=float)

@@ -32,7 +32,7 @@ import numpy as np
 from ..errors import MeasurementError
 
 if TYPE_CHECKING:
-    from ..mechanism import Mechanism
+    from ..model.mechanism_parts import MechanismParts as Mechanism
 
 STANDARD_GRAVITY = 9.80665  # [m/s^2], a hung mass's weight (as the accuracy map's payloads)
 POSITION = ("x", "y", "z")

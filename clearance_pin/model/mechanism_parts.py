@@ -1,6 +1,6 @@
 """What the layers below the front door read of a mechanism: a structural type (a Protocol), so
-that nothing under ``equilibrium/``, ``kinematics/`` or ``check/`` imports ``mechanism.py``, not
-even for its types (issue 22). :class:`~clearance_pin.mechanism.Mechanism` is one.
+that nothing under ``equilibrium/``, ``kinematics/``, ``check/`` or ``identification/`` imports
+``mechanism.py``, not even for its types (issue 22). :class:`~clearance_pin.mechanism.Mechanism` is one.
 """
 
 from __future__ import annotations
@@ -65,6 +65,14 @@ class MechanismParts(Protocol):
     def configure(self, q: Any = None) -> Any: ...
 
     def resolve_loads(self, loads: Sequence[Any] | None = None, gravity: Any = None) -> Any: ...
+
+    def rebuilt(self, model: pin.Model, tree_joints: Any, loop_joints: Any) -> MechanismParts: ...
+
+    def link_point(self, frame: str) -> Any: ...
+
+    def solve_many(self, loads: Any = None, *args: Any, **options: Any) -> Any: ...
+
+    def accuracy(self, output: str, configurations: Any, *args: Any, **options: Any) -> Any: ...
 
 
 class ConfigurationParts(Protocol):
