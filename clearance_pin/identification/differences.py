@@ -103,6 +103,14 @@ def measured_point(mechanism: Mechanism, point: Any) -> MeasuredPoint:
     return MeasuredPoint(frame, offset.copy(), index, link, link_point)
 
 
+def parameter_unit(kind: str, prismatic: bool) -> str:
+    """The unit of a drive parameter: backlash [rad, or m for a sliding drive], stiffness
+    [N m/rad, or N/m]."""
+    if kind == "backlash":
+        return "m" if prismatic else "rad"
+    return "N/m" if prismatic else "N m/rad"
+
+
 @dataclass(frozen=True)
 class Parameter:
     """One unknown of the fit.
@@ -122,9 +130,7 @@ class Parameter:
 
     @property
     def unit(self) -> str:
-        if self.kind == "backlash":
-            return "m" if self.prismatic else "rad"
-        return "N/m" if self.prismatic else "N m/rad"
+        return parameter_unit(self.kind, self.prismatic)
 
     @property
     def prior_column(self) -> float:

@@ -18,6 +18,7 @@ from .differences import (
     MeasuredPoint,
     difference_model,
     measured_point,
+    parameter_unit,
     with_drives,
 )
 from .fit import CORRELATED, LeastSquares, centred, least_squares, rms
@@ -63,9 +64,7 @@ class IdentifiedParameter:
 
     @property
     def unit(self) -> str:
-        if self.kind == "backlash":
-            return "m" if self.prismatic else "rad"
-        return "N/m" if self.prismatic else "N m/rad"
+        return parameter_unit(self.kind, self.prismatic)
 
     @property
     def label(self) -> str:
